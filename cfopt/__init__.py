@@ -1,0 +1,39 @@
+"""cfopt: optimisation-grounded verification of coalition formation for robot collectives.
+
+The data model (:class:`Mission`, :class:`Assignment`), the seed's instance family
+(:func:`generate_mission`, :func:`paper_grid`), and the exact optimum.
+
+>>> import cfopt
+>>> m = cfopt.generate_mission(robots=20, percent_tasks=10, service_types=5,
+...                            services_per_robot=2, seed=1)
+>>> m
+<Mission 'seed family n=20 p=10 S:k=5:2 load=1 seed=1': 20 robots, 2 tasks, 5 services>
+"""
+
+from cfopt.assignment import ASSIGNMENT_FORMAT, UNASSIGNED, Assignment
+from cfopt.errors import MissionError
+from cfopt.generate import (
+    GridCell,
+    generate_mission,
+    generate_with_witness,
+    paper_distributed_grid,
+    paper_grid,
+)
+from cfopt.mission import MISSION_FORMAT, Mission
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ASSIGNMENT_FORMAT",
+    "MISSION_FORMAT",
+    "UNASSIGNED",
+    "Assignment",
+    "GridCell",
+    "Mission",
+    "MissionError",
+    "__version__",
+    "generate_mission",
+    "generate_with_witness",
+    "paper_distributed_grid",
+    "paper_grid",
+]

@@ -1,0 +1,218 @@
+"""The ``cfopt`` command line: parse, call the API, print.
+
+Exit codes: 0 success (an unstable or suboptimal answer is still an answer), 2 bad
+input or usage (one line on stderr starting ``error:``, no traceback), 1 an internal
+failure (a bug: the traceback is printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any, NoReturn
+
+from cfopt import __version__
+from cfopt.errors import MissionError
+from cfopt.generate import generate_mission
+from cfopt.mission import Mission
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT = 0, 1, 2
+
+Handler = Callable[[argparse.Namespace], int]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the house error convention: one ``error:`` line, exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        sys.stderr.write(f"error: {message} (see '{self.prog} --help')\n")
+        sys.exit(EXIT_BAD_INPUT)
+
+
+# ------------------------------------------------------------------ argument types
+def _whole_number(low: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
+
+    return parse
+
+
+def _positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+# ------------------------------------------------------------------------ helpers
+def load_mission(path: str) -> Mission:
+    """Load a mission from a path, or from standard input for ``-``."""
+    return Mission.from_json(sys.stdin if path == "-" else path)
+
+
+def emit_json(obj: Any) -> None:
+    """Print one JSON object on stdout (``--json`` output)."""
+    sys.stdout.write(json.dumps(obj, ensure_ascii=False) + "\n")
+
+
+def write_output(text: str, target: str, force: bool) -> None:
+    """Write ``text`` to a file or to stdout (``-``); never replace a file unless forced."""
+    from cfopt._jsonio import write_text
+
+    if target == "-":
+        sys.stdout.write(text)
+    else:
+        write_text(text, target, overwrite=force)
+
+
+# ----------------------------------------------------------------------- commands
+def _add_generate(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument(
+        "--robots", type=_whole_number(1), required=True, metavar="N", help="collective size n"
+    )
+    sub.add_argument(
+        "--percent-tasks",
+        type=_positive_number,
+        required=True,
+        metavar="P",
+        help="tasks as a percentage of n: m = max(1, round(n P / 100))",
+    )
+    sub.add_argument(
+        "--service-types",
+        type=_whole_number(1),
+        required=True,
+        metavar="S",
+        help="number of service types",
+    )
+    sub.add_argument(
+        "--services-per-robot",
+        type=_whole_number(1),
+        required=True,
+        metavar="K",
+        help="distinct services each robot has (K <= S)",
+    )
+    sub.add_argument(
+        "--load",
+        type=_positive_number,
+        default=1.0,
+        metavar="L",
+        help="total requirement / n: 1 achievable (default), >1 over-subscribed, <1 spare robots",
+    )
+    sub.add_argument(
+        "--seed",
+        type=_whole_number(0),
+        default=None,
+        metavar="X",
+        help="random seed (same seed, same file, byte for byte); default: fresh",
+    )
+    sub.add_argument(
+        "-o",
+        "--output",
+        default="-",
+        metavar="FILE",
+        help="where to write the mission JSON ('-' = stdout, the default)",
+    )
+    sub.add_argument("--force", action="store_true", help="replace FILE if it exists")
+
+    def run(args: argparse.Namespace) -> int:
+        mission = generate_mission(
+            robots=args.robots,
+            percent_tasks=args.percent_tasks,
+            service_types=args.service_types,
+            services_per_robot=args.services_per_robot,
+            load=args.load,
+            seed=args.seed,
+        )
+        write_output(mission.to_json(), args.output, args.force)
+        return EXIT_OK
+
+    return run
+
+
+def _add_validate(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+
+    def run(args: argparse.Namespace) -> int:
+        m = load_mission(args.mission)
+        if args.json:
+            emit_json(
+                {
+                    "valid": True,
+                    "robots": m.n_robots,
+                    "tasks": m.n_tasks,
+                    "services": m.n_services,
+                    "total_utility": m.total_utility,
+                }
+            )
+        else:
+            print(f"ok: {m.n_robots} robots, {m.n_tasks} tasks, {m.n_services} services")
+        return EXIT_OK
+
+    return run
+
+
+def _add_audit(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument("--quick", action="store_true", help="a smaller grid (about 2 minutes)")
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+    sub.add_argument("-o", "--output", metavar="DIR", help="report directory")
+
+    def run(args: argparse.Namespace) -> int:
+        raise MissionError(
+            "cfopt audit is not available in this version yet: it needs the exact solver, "
+            "the heuristics and the claims checkers, which are still being built "
+            "(available now: generate, validate)"
+        )
+
+    return run
+
+
+_COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] = [
+    ("generate", "a random mission from the seed's instance family", _add_generate),
+    ("validate", "check a mission file", _add_validate),
+    ("audit", "the main job: the seed's claims and the optimal-gap report", _add_audit),
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``cfopt`` argument parser with every subcommand."""
+    parser = _Parser(
+        prog="cfopt",
+        description="Optimisation-grounded verification of coalition formation for robot "
+        "collectives. Exit codes: 0 success, 2 bad input or usage, 1 internal error.",
+    )
+    parser.add_argument("--version", action="version", version=f"cfopt {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, summary, add in _COMMANDS:
+        sub = commands.add_parser(
+            name, help=summary, description=summary[0].upper() + summary[1:] + "."
+        )
+        sub.set_defaults(handler=add(sub))
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``cfopt`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit code."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.handler(args)
+    except MissionError as exc:
+        sys.stderr.write(f"error: {exc}\n")
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        sys.stderr.close()  # the reader went away (e.g. `| head`); nothing left to say
+        return EXIT_OK

@@ -1,0 +1,1 @@
+"""heuristics package (see README)."""
