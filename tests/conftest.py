@@ -1,6 +1,7 @@
 """Hypothesis profiles: ``ci`` (derandomized, bounded) and ``dev`` (the default).
 
-Select one with ``HYPOTHESIS_PROFILE=ci pytest``; ``.ci/run`` does.
+Select one with ``HYPOTHESIS_PROFILE=ci pytest``; when the variable is unset, CI runs
+(``CI`` set, as in ``.ci/run``) use ``ci`` and everything else uses ``dev``.
 """
 
 import os
@@ -22,4 +23,6 @@ settings.register_profile(
     print_blob=True,
     suppress_health_check=[HealthCheck.too_slow],
 )
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
+settings.load_profile(
+    os.environ.get("HYPOTHESIS_PROFILE") or ("ci" if os.environ.get("CI") else "dev")
+)
