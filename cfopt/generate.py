@@ -72,7 +72,9 @@ def generate_mission(
         over-subscribes (total requirement ``round(load n)``: not every task can be
         done); ``load < 1`` leaves ``n - round(load n)`` robots spare (still achievable).
     seed : None, int or numpy.random.Generator
-        Every random choice flows from ``numpy.random.default_rng(seed)``.
+        Every random choice flows from ``numpy.random.default_rng(seed)``.  With
+        ``None`` a fresh integer seed is drawn and recorded in the metadata, so every
+        mission can be regenerated.
 
     Returns
     -------
@@ -134,6 +136,8 @@ def generate_with_witness(
             f"load: {load} asks for {total} robots in all, "
             f"but each of the {m} tasks needs at least one"
         )
+    if seed is None:  # draw a fresh seed, but record it so the mission can be replayed
+        seed = int(np.random.default_rng().integers(2**32))
     rng = np.random.default_rng(seed)
     ranked = np.argsort(rng.random((n, s)), axis=1, kind="stable")[:, :k]
     capabilities = np.zeros((n, s), dtype=bool)
@@ -210,7 +214,7 @@ def _check_parameters(
 
 
 def _seed_label(seed: SeedLike) -> str:
-    return str(seed) if isinstance(seed, numbers.Integral) else "none" if seed is None else "rng"
+    return str(seed) if isinstance(seed, numbers.Integral) else "rng"
 
 
 def _generator_record(n: int, p: float, s: int, k: int, load: float, seed: SeedLike) -> dict:

@@ -112,6 +112,13 @@ def test_different_seeds_differ_and_generator_seeds_are_accepted() -> None:
     )
 
 
+def test_a_fresh_seed_is_recorded_so_the_mission_can_be_replayed() -> None:
+    mission = generate_mission(40, 10, 5, 2)
+    seed = mission.metadata["generator"]["seed"]
+    assert isinstance(seed, int)
+    assert generate_mission(40, 10, 5, 2, seed=seed) == mission
+
+
 def test_services_are_drawn_uniformly() -> None:
     mission = generate_mission(4000, 10, 10, 3, seed=7)
     frequency = mission.capabilities.mean(axis=0)
