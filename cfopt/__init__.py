@@ -12,6 +12,7 @@ The data model (:class:`Mission`, :class:`Assignment`), the seed's instance fami
 
 from cfopt.assignment import ASSIGNMENT_FORMAT, UNASSIGNED, Assignment
 from cfopt.errors import MissionError
+from cfopt.exact import ExactResult, ExactStatus, solve_exact
 from cfopt.generate import (
     GridCell,
     generate_mission,
@@ -28,6 +29,8 @@ __all__ = [
     "MISSION_FORMAT",
     "UNASSIGNED",
     "Assignment",
+    "ExactResult",
+    "ExactStatus",
     "GridCell",
     "Mission",
     "MissionError",
@@ -36,4 +39,5 @@ __all__ = [
     "generate_with_witness",
     "paper_distributed_grid",
     "paper_grid",
+    "solve_exact",
 ]
