@@ -22,6 +22,8 @@ from cfopt.mission import Mission
 __all__ = ["main"]
 
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT = 0, 1, 2
+#: Violations listed per kind in human-readable output (``--json`` lists them all).
+_SHOWN = 10
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -218,10 +220,69 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
+def _add_check(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
+    sub.add_argument("assignment", metavar="ASSIGNMENT", help="assignment JSON file ('-' = stdin)")
+    sub.add_argument(
+        "--capped",
+        action="store_true",
+        help="robots may not join slots that already hold the robots they require",
+    )
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+
+    def run(args: argparse.Namespace) -> int:
+        import proofs
+        from cfopt.assignment import Assignment
+
+        if args.mission == "-" and args.assignment == "-":
+            raise MissionError("MISSION and ASSIGNMENT cannot both be read from stdin ('-')")
+        m = load_mission(args.mission)
+        a = Assignment.from_json(m, sys.stdin if args.assignment == "-" else args.assignment)
+        nash = proofs.nash_violations(m, a, capped=args.capped)
+        strict = proofs.pairwise_violations(m, a, mode="strict", capped=args.capped)
+        pareto = proofs.pairwise_violations(m, a, mode="pareto", capped=args.capped)
+        out = {
+            "valid": True,
+            "capped": args.capped,
+            "utility": a.utility(m),
+            "total_utility": m.total_utility,
+            "percent_utility": a.percent_utility(m),
+            "completed_tasks": [m.task_ids[j] for j in a.completed_tasks(m).tolist()],
+            "nash_stable": not nash,
+            "nash_violations": [v.to_dict(m) for v in nash],
+            "pairwise_stable": not strict,
+            "pairwise_violations": [v.to_dict(m) for v in strict],
+            "pareto_stable": not pareto,
+            "pareto_violations": [v.to_dict(m) for v in pareto],
+        }
+        if args.json:
+            emit_json(out)
+            return EXIT_OK
+        print(
+            f"valid: {a.n_assigned} of {m.n_robots} robots assigned, utility "
+            f"{out['utility']:g} of {out['total_utility']:g} ({out['percent_utility']:.2f}%)"
+            + (", capped moves" if args.capped else "")
+        )
+        for label, items in (
+            ("nash stable", nash),
+            ("pairwise stable (strict)", strict),
+            ("pairwise stable (pareto)", pareto),
+        ):
+            print(f"{label}: {'yes' if not items else f'no, {len(items)} violations'}")
+            for v in items[:_SHOWN]:
+                print(f"  {v.describe(m)}")
+            if len(items) > _SHOWN:
+                print(f"  ... and {len(items) - _SHOWN} more (--json lists them all)")
+        return EXIT_OK
+
+    return run
+
+
 _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] = [
     ("generate", "a random mission from the seed's instance family", _add_generate),
     ("validate", "check a mission file", _add_validate),
     ("solve", "the exact optimum of a mission (ILP, HiGHS)", _add_solve),
+    ("check", "validity, utility and stability of an assignment", _add_check),
     ("audit", "the main job: the seed's claims and the optimal-gap report", _add_audit),
 ]
 

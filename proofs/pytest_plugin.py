@@ -1,0 +1,187 @@
+"""A pytest plugin that audits a user's coalition-formation heuristic.
+
+Installed with cfopt (entry point ``pytest11: cfopt``), it provides the fixture
+:func:`cfopt_audit`::
+
+    def my_heuristic(mission: cfopt.Mission) -> cfopt.Assignment: ...
+
+    def test_my_heuristic(cfopt_audit):
+        cfopt_audit(my_heuristic)                              # valid + Nash stable
+        cfopt_audit(my_heuristic, pairwise=True, mode="pareto", capped=True)
+
+Missions are drawn by hypothesis (:func:`proofs.strategies.missions` unless a strategy is
+given); every partition the heuristic returns is checked for validity, Nash stability and,
+with ``pairwise=True``, pairwise stability.  A failure is shrunk by hypothesis to a small
+mission and reported with the mission and the assignment as JSON, also written to files
+that ``cfopt check MISSION ASSIGNMENT`` replays.  hypothesis is imported only when the
+fixture is used.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cfopt import Assignment, Mission, MissionError
+from proofs.stability import MODES, nash_violations, pairwise_violations
+
+__all__ = ["AuditFailure", "Auditor", "cfopt_audit"]
+
+_SHOWN = 10
+
+
+class AuditFailure(AssertionError):
+    """A heuristic returned an invalid or unstable partition (the message says which)."""
+
+
+class Auditor:
+    """The callable behind the :func:`cfopt_audit` fixture.
+
+    Parameters
+    ----------
+    directory : pathlib.Path
+        Where the counterexample files are written.
+    """
+
+    def __init__(self, directory: Path) -> None:
+        self.directory = directory
+
+    def __call__(
+        self,
+        heuristic: Callable[[Mission], Any],
+        *,
+        missions: Any = None,
+        max_examples: int | None = None,
+        capped: bool = False,
+        pairwise: bool = False,
+        mode: str = "strict",
+        seed: int | None = None,
+    ) -> None:
+        """Check ``heuristic(mission)`` on drawn missions; raise :class:`AuditFailure`.
+
+        Parameters
+        ----------
+        heuristic : callable
+            ``heuristic(mission)`` returns a :class:`cfopt.Assignment` (or an object with
+            an ``assignment`` attribute, like ``heuristics``' run results).  It must be
+            deterministic for a given mission (hypothesis replays examples).
+        missions : hypothesis strategy, optional
+            Missions to draw; default :func:`proofs.strategies.missions` (up to 10 robots,
+            5 tasks, 4 services).
+        max_examples : int, optional
+            Missions to try (default: the active hypothesis profile's).
+        capped : bool, default False
+            Check stability with capped moves (the move set of Pair-GRAPE-S's phase 1).
+        pairwise : bool, default False
+            Also require pairwise stability in ``mode``.
+        mode : {"strict", "pareto"}, default "strict"
+            The pairwise notion (see :func:`proofs.pairwise_violations`).
+        seed : int, optional
+            Fix hypothesis' random seed.
+        """
+        if not callable(heuristic):
+            raise TypeError(f"heuristic: must be callable, got {type(heuristic).__name__}")
+        if mode not in MODES:
+            raise ValueError(f"mode: must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
+        if max_examples is not None and (
+            isinstance(max_examples, bool) or not isinstance(max_examples, int) or max_examples < 1
+        ):
+            raise ValueError(f"max_examples: must be a whole number >= 1, got {max_examples!r}")
+        import hypothesis
+        from hypothesis import HealthCheck, given, settings
+
+        from proofs import strategies
+
+        strategy = strategies.missions() if missions is None else missions
+        name = getattr(heuristic, "__qualname__", None) or repr(heuristic)
+
+        def audit_one(mission: Mission) -> None:
+            self._check(heuristic, name, mission, capped=capped, pairwise=pairwise, mode=mode)
+
+        audit_one.__name__ = audit_one.__qualname__ = f"cfopt_audit_{_slug(name)}"
+        config: dict[str, Any] = {
+            "deadline": None,
+            "suppress_health_check": [HealthCheck.too_slow, HealthCheck.data_too_large],
+        }
+        if max_examples is not None:
+            config["max_examples"] = max_examples
+        test = settings(**config)(given(strategy)(audit_one))
+        if seed is not None:
+            test = hypothesis.seed(seed)(test)
+        test()
+
+    def _check(
+        self,
+        heuristic: Callable[[Mission], Any],
+        name: str,
+        mission: Mission,
+        *,
+        capped: bool,
+        pairwise: bool,
+        mode: str,
+    ) -> None:
+        result = heuristic(mission)
+        assignment = (
+            result if isinstance(result, Assignment) else getattr(result, "assignment", None)
+        )
+        if not isinstance(assignment, Assignment):
+            self._fail(
+                name, mission, None, f"returned {type(result).__name__}, not a cfopt.Assignment"
+            )
+        try:
+            assignment.validate(mission)
+        except MissionError as exc:
+            self._fail(name, mission, None, f"returned an invalid assignment: {exc}")
+        where = " (capped moves)" if capped else ""
+        found = nash_violations(mission, assignment, capped=capped)
+        if found:
+            self._fail(name, mission, assignment, f"is not Nash stable{where}", found)
+        if pairwise:
+            found = pairwise_violations(mission, assignment, mode=mode, capped=capped)
+            if found:
+                self._fail(
+                    name, mission, assignment, f"is not pairwise stable ({mode}){where}", found
+                )
+
+    def _fail(
+        self,
+        name: str,
+        mission: Mission,
+        assignment: Assignment | None,
+        problem: str,
+        violations: list[Any] = (),  # type: ignore[assignment]
+    ) -> None:
+        self.directory.mkdir(parents=True, exist_ok=True)
+        mission_path = self.directory / "mission.json"
+        mission_path.write_text(mission.to_json(), encoding="utf-8")
+        lines = [f"cfopt_audit: {name}: the partition {problem}"]
+        lines += [f"  {v.describe(mission)}" for v in violations[:_SHOWN]]
+        if len(violations) > _SHOWN:
+            lines.append(f"  ... and {len(violations) - _SHOWN} more")
+        lines += ["mission:", mission.to_json().rstrip()]
+        if assignment is not None:
+            assignment_path = self.directory / "assignment.json"
+            assignment_path.write_text(assignment.to_json(mission), encoding="utf-8")
+            lines += ["assignment:", assignment.to_json(mission).rstrip()]
+            lines.append(f"replay: cfopt check {mission_path} {assignment_path}")
+        else:
+            lines.append(f"mission written to {mission_path}")
+        raise AuditFailure("\n".join(lines))
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"\W+", "_", text).strip("_") or "heuristic"
+
+
+@pytest.fixture
+def cfopt_audit(tmp_path_factory: pytest.TempPathFactory) -> Auditor:
+    """Audit a heuristic: ``cfopt_audit(my_heuristic, pairwise=True, max_examples=50)``.
+
+    The counterexample files of a failure go to a fresh temporary directory named in the
+    failure message.  See :class:`Auditor` for the options.
+    """
+    return Auditor(tmp_path_factory.mktemp("cfopt_audit"))

@@ -1,0 +1,120 @@
+"""The ``cfopt_audit`` pytest plugin, run in a child pytest with ``pytester``."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+import cfopt
+from cfopt.cli import main
+
+USER_TESTS = """
+import cfopt
+from hypothesis import strategies as st
+from proofs._dynamics import best_response
+from proofs.strategies import missions
+
+
+def stable(mission):
+    return best_response(mission)
+
+
+def capped_stable(mission):
+    return best_response(mission, capped=True)
+
+
+def nobody(mission):
+    return cfopt.Assignment.empty(mission)
+
+
+def not_an_assignment(mission):
+    return {"assignment": []}
+
+
+def test_stable_passes(cfopt_audit):
+    cfopt_audit(stable, max_examples=25)
+
+
+def test_stable_passes_pairwise_strict(cfopt_audit):
+    cfopt_audit(stable, max_examples=25, pairwise=True)
+
+
+def test_broken_fails(cfopt_audit):
+    cfopt_audit(nobody, max_examples=50)
+
+
+def test_capped_fails_pareto(cfopt_audit):
+    # capped best response leaves r3 out; r0 could move to t1 at the same load and let r3
+    # take its place: a Pareto (not strict) pairwise deviation
+    m = cfopt.Mission.from_arrays([[1, 1], [0, 1], [1, 0], [1, 0]], [[2, 0], [0, 2]], [1, 1])
+    cfopt_audit(capped_stable, capped=True, pairwise=True, mode="strict", missions=st.just(m))
+    cfopt_audit(capped_stable, capped=True, pairwise=True, mode="pareto", missions=st.just(m))
+
+
+def test_wrong_type_fails(cfopt_audit):
+    cfopt_audit(not_an_assignment, max_examples=5)
+"""
+
+
+def _section(text: str, test: str) -> str:
+    start = text.index(f"_ {test} _")
+    rest = text[start + 1 :]
+    end = re.search(r"\n_{3,} test_\w+ _{3,}|\n=+ short test summary", rest)
+    return rest[: end.start()] if end else rest
+
+
+def _replay(capsys, text, *flags):
+    (paths,) = set(
+        re.findall(r"replay: cfopt check (\S+mission\.json) (\S+assignment\.json)", text)
+    )
+    capsys.readouterr()
+    assert main(["check", *paths, *flags, "--json"]) == 0
+    return paths, json.loads(capsys.readouterr().out)
+
+
+def test_plugin_passes_stable_and_fails_broken_heuristics(pytester, capsys):
+    pytester.makepyfile(test_user=USER_TESTS)
+    outcome = pytester.runpytest("-p", "no:cacheprovider")
+    outcome.assert_outcomes(passed=2, failed=3)
+    text = outcome.stdout.str()
+
+    # the broken heuristic: shrunk to one robot, one service, one task needing one robot
+    broken = _section(text, "test_broken_fails")
+    assert "cfopt_audit: nobody: the partition is not Nash stable" in broken
+    assert "r0: - -> t0/s0" in broken
+    assert '"requires": {"s0": 1}' in broken
+    (mission_path, _), report = _replay(capsys, broken)
+    mission = cfopt.Mission.from_json(mission_path)
+    assert (mission.n_robots, mission.n_tasks, mission.n_services) == (1, 1, 1)
+    assert mission.requirements.tolist() == [[1]] and mission.capabilities.tolist() == [[True]]
+    assert report["nash_stable"] is False
+    assert report["nash_violations"] == [
+        {"robot": "r0", "from": None, "to": {"task": "t0", "service": "s0"}}
+    ]
+
+    # strict passes, pareto fails with a joint deviation that `cfopt check` replays
+    pareto = _section(text, "test_capped_fails_pareto")
+    assert "is not pairwise stable (pareto) (capped moves)" in pareto
+    assert "r0: t0/s0 -> t1/s1 & r3: - -> t0/s0" in pareto
+    _, report = _replay(capsys, pareto, "--capped")
+    assert report["nash_stable"] is True and report["pairwise_stable"] is True
+    assert report["pareto_stable"] is False
+
+    wrong = _section(text, "test_wrong_type_fails")
+    assert "returned dict, not a cfopt.Assignment" in wrong
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        pytest.param({"heuristic": 3}, TypeError, "heuristic: must be callable", id="heuristic"),
+        pytest.param({"mode": "weak"}, ValueError, "mode: must be one of", id="mode"),
+        pytest.param({"max_examples": 0}, ValueError, "max_examples: must be", id="examples"),
+    ],
+)
+def test_bad_arguments(cfopt_audit, kwargs, error, match):
+    heuristic = kwargs.pop("heuristic", cfopt.Assignment.empty)
+    with pytest.raises(error, match=match):
+        cfopt_audit(heuristic, **kwargs)
