@@ -1,1 +1,28 @@
-"""heuristics package (see README)."""
+"""heuristics: the coalition-formation algorithms under audit, one module each.
+
+>>> import cfopt, heuristics
+>>> m = cfopt.generate_mission(robots=30, percent_tasks=10, service_types=5,
+...                            services_per_robot=1, seed=0)
+>>> run = heuristics.grape_s(m)
+>>> run.assignment.percent_utility(m), run.iterations, run.rounds
+(100.0, 30, 31)
+>>> sorted(heuristics.ALGORITHMS)
+['grape-s', 'pair-grape-s']
+"""
+
+from heuristics._run import Run, belief_bytes, broadcast_cost
+from heuristics.grape_s import grape_s
+from heuristics.pair_grape_s import pair_grape_s
+from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm, run_algorithm
+
+__all__ = [
+    "ALGORITHMS",
+    "Run",
+    "algorithm_names",
+    "belief_bytes",
+    "broadcast_cost",
+    "get_algorithm",
+    "grape_s",
+    "pair_grape_s",
+    "run_algorithm",
+]

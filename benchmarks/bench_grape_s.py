@@ -1,0 +1,88 @@
+"""Wall-clock benchmark of GRAPE-S and Pair-GRAPE-S (issue 5 targets).
+
+Run: ``python benchmarks/bench_grape_s.py [--repeats 5] [--quick] [--profile]``.
+Prints medians of ``--repeats`` whole calls (mission generation excluded):
+
+* GRAPE-S and Pair-GRAPE-S at 1000 robots, every composition and percent-task level of
+  the seed's grid (target: < 1 s each; the seed's C++ simulator: median 5 min 22 s at
+  1000 robots, 50 %, 10:5);
+* GRAPE-S at 10,000 robots, 10 % tasks, 10:5 (target: < 60 s);
+* fast vs reference engine at 200 robots, 10:5, 50 % (target: >= 100x).
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import statistics
+import time
+
+from cfopt import GridCell
+from heuristics import grape_s, pair_grape_s
+from heuristics._reference import grape_s_reference
+
+
+def median_seconds(function, mission, repeats: int, **kwargs) -> tuple[float, object]:
+    times, run = [], None
+    for _ in range(repeats):
+        started = time.perf_counter()
+        run = function(mission, **kwargs)
+        times.append(time.perf_counter() - started)
+    return statistics.median(times), run
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--quick", action="store_true", help="skip 10,000 robots")
+    parser.add_argument("--profile", action="store_true", help="cProfile the 10,000-robot run")
+    args = parser.parse_args()
+    r = args.repeats
+
+    print(f"median of {r} whole calls, seconds; mission index 0 of each cell\n")
+    print(
+        f"{'cell':<28}{'grape-s':>10}{'iters':>7}{'util%':>8}"
+        f"{'pair-grape-s':>14}{'iters':>7}{'exch':>6}{'util%':>8}"
+    )
+    worst = 0.0
+    for percent in (1, 10, 50):
+        for s, k in ((5, 1), (5, 5), (10, 1), (10, 5)):
+            cell = GridCell(1000, percent, s, k)
+            m = cell.mission(0)
+            tg, g = median_seconds(grape_s, m, r)
+            tp, p = median_seconds(pair_grape_s, m, r)
+            worst = max(worst, tg, tp)
+            print(
+                f"{cell.label:<28}{tg:>10.3f}{g.iterations:>7}"
+                f"{g.assignment.percent_utility(m):>8.2f}{tp:>14.3f}{p.iterations:>7}"
+                f"{p.exchanges:>6}{p.assignment.percent_utility(m):>8.2f}"
+            )
+    print(f"worst 1000-robot median: {worst:.3f} s (target < 1 s)\n")
+
+    if not args.quick:
+        m = GridCell(10_000, 10, 10, 5).mission(0)
+        if args.profile:
+            profiler = cProfile.Profile()
+            profiler.enable()
+            grape_s(m)
+            profiler.disable()
+            pstats.Stats(profiler).sort_stats("cumulative").print_stats(12)
+        t, g = median_seconds(grape_s, m, r)
+        print(
+            f"grape-s n=10000 p=10% 10:5: {t:.3f} s, {g.iterations} iterations, "
+            f"{g.assignment.percent_utility(m):.2f}% utility (target < 60 s)\n"
+        )
+
+    m = GridCell(200, 50, 10, 5).mission(0)
+    tf, f = median_seconds(grape_s, m, r)
+    tr, ref = median_seconds(grape_s_reference, m, max(1, min(r, 3)))
+    assert ref.trajectory.tolist() == f.trajectory.tolist()
+    print(
+        f"n=200 p=50% 10:5: fast {tf * 1000:.2f} ms, reference {tr:.2f} s "
+        f"(median of {max(1, min(r, 3))}), speed-up {tr / tf:.0f}x (target >= 100x)"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,185 @@
+"""The frozen result every heuristic returns, and the communication model they share."""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from cfopt import Assignment, Mission, MissionError
+
+__all__ = [
+    "HEADER_BYTES",
+    "ORDERS",
+    "ROBOT_ENTRY_BYTES",
+    "Run",
+    "belief_bytes",
+    "broadcast_cost",
+    "check_order",
+    "seed_label",
+]
+
+#: Bytes of a belief message's header: evolution number ``r`` and time stamp, int64 each.
+HEADER_BYTES = 16
+#: Bytes per robot entry of the partition ``Pi``: one int32 slot index ``j * S + s`` (-1 void).
+ROBOT_ENTRY_BYTES = 4
+#: Robot orders the GRAPE-S engines accept.
+ORDERS = ("index", "random")
+
+
+def belief_bytes(n_robots: int) -> int:
+    """Size of one ``(r, time, Pi)`` message: ``16 + 4 n`` bytes.
+
+    >>> belief_bytes(100)
+    416
+    """
+    return HEADER_BYTES + ROBOT_ENTRY_BYTES * n_robots
+
+
+def broadcast_cost(n_robots: int, rounds: int) -> tuple[int, int]:
+    """Messages and bytes of ``rounds`` fully connected broadcast rounds.
+
+    Every robot sends its belief to each of its ``n - 1`` neighbours every round
+    (algorithms.md §3), so a round costs ``n (n - 1)`` messages of
+    :func:`belief_bytes` bytes each.  Exact Python integers.
+
+    >>> broadcast_cost(100, 101)
+    (999900, 415958400)
+    """
+    messages = rounds * n_robots * max(n_robots - 1, 0)
+    return messages, messages * belief_bytes(n_robots)
+
+
+def check_order(order: str) -> str:
+    """Validate an ``order`` argument."""
+    if order not in ORDERS:
+        raise MissionError(f"order: must be one of {', '.join(ORDERS)}, got {order!r}")
+    return order
+
+
+def seed_label(seed: Any) -> int | None:
+    """The seed as recorded in a :class:`Run`: an int, or ``None`` (fresh or a Generator)."""
+    if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):
+        return int(seed)
+    return None
+
+
+def _empty_trajectory() -> npt.NDArray[np.int64]:
+    out = np.zeros((0, 4), dtype=np.int64)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """One heuristic run: the assignment and what it cost (frozen).
+
+    Attributes
+    ----------
+    algorithm : str
+        Registry name, e.g. ``"grape-s"``.
+    assignment : cfopt.Assignment
+        The final partition.
+    iterations : int
+        Rounds in which the partition changed (GRAPE-S moves plus pairwise exchanges).
+    rounds : int
+        Communication rounds, quiet rounds included.
+    messages, bytes : int
+        Point-to-point sends and their total size under the algorithm's documented model.
+    work : int
+        Counted computation in the algorithm's documented unit (for GRAPE-S: slot
+        examinations, see :func:`heuristics.grape_s`).
+    seconds : float
+        Wall-clock time of the whole call.
+    seed : int or None
+        The integer seed given, ``None`` when none (or a Generator) was.
+    exchanges : int
+        Pairwise exchanges (Pair-GRAPE-S; 0 for the others).
+    pairwise_step_ran : bool
+        Whether Pair-GRAPE-S's pairwise step was needed (a short slot and an unassigned
+        robot after its GRAPE-S phase).
+    trajectory : ndarray of int64, shape (k, 4)
+        The applied moves in order, one row ``(iteration, robot, task, service)`` per robot
+        that changed slot (``task = service = -1``: became unassigned).  A pairwise exchange
+        is two rows with the same iteration.
+    options : tuple of (str, object)
+        The options the run used (``order``, ``capped``, ``reward``...).
+
+    Notes
+    -----
+    Two runs compare equal when every field does, ``seconds`` included; compare
+    ``run.replace_seconds(0.0)`` to ignore timing.
+    """
+
+    algorithm: str
+    assignment: Assignment
+    iterations: int
+    rounds: int
+    messages: int
+    bytes: int
+    work: int
+    seconds: float
+    seed: int | None
+    exchanges: int = 0
+    pairwise_step_ran: bool = False
+    trajectory: npt.NDArray[np.int64] = field(default_factory=_empty_trajectory)
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        traj = np.array(self.trajectory, dtype=np.int64, copy=True).reshape(-1, 4)
+        traj.setflags(write=False)
+        object.__setattr__(self, "trajectory", traj)
+
+    def replace_seconds(self, seconds: float) -> Run:
+        """A copy with another ``seconds`` (to compare runs without their timing)."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values["seconds"] = seconds
+        return Run(**values)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Run):
+            return NotImplemented
+        for f in fields(self):
+            mine, theirs = getattr(self, f.name), getattr(other, f.name)
+            if isinstance(mine, np.ndarray):
+                if not np.array_equal(mine, theirs):
+                    return False
+            elif mine != theirs:
+                return False
+        return True
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (
+            f"<Run {self.algorithm}: {self.assignment.n_assigned} of "
+            f"{self.assignment.task.size} assigned, {self.iterations} iterations, "
+            f"{self.rounds} rounds, {self.seconds:.3g} s>"
+        )
+
+    def to_dict(self, mission: Mission) -> dict[str, Any]:
+        """The ``run`` JSON object of interface.md §3 (without the stability verdicts).
+
+        ``nash_stable`` and ``pairwise_stable`` are added by the caller from ``proofs``.
+        """
+        a = self.assignment
+        return {
+            "algorithm": self.algorithm,
+            "seed": self.seed,
+            "utility": a.utility(mission),
+            "total_utility": mission.total_utility,
+            "percent_utility": a.percent_utility(mission),
+            "iterations": self.iterations,
+            "rounds": self.rounds,
+            "messages": self.messages,
+            "bytes": self.bytes,
+            "work": self.work,
+            "seconds": self.seconds,
+            "exchanges": self.exchanges,
+            "pairwise_step_ran": self.pairwise_step_ran,
+            "options": dict(self.options),
+            "assignment": a.to_dict(mission)["assignment"],
+        }
