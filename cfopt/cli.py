@@ -220,6 +220,61 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
+def _add_run(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument(
+        "algorithm", metavar="ALGORITHM", help="heuristic: grape-s, pair-grape-s, sda, rachna-dt"
+    )
+    sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
+    sub.add_argument(
+        "--seed",
+        type=_whole_number(0),
+        default=None,
+        metavar="X",
+        help="random seed (same seed, same run); default: fresh",
+    )
+    sub.add_argument(
+        "--order",
+        choices=("index", "random"),
+        default="index",
+        help="robot order each round: index (default, the seed's simulator) or seeded random",
+    )
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+
+    def run(args: argparse.Namespace) -> int:
+        import proofs
+        from heuristics.registry import get_algorithm
+
+        algorithm = get_algorithm(args.algorithm)
+        m = load_mission(args.mission)
+        result = algorithm(m, seed=args.seed, order=args.order)
+        a = result.assignment
+        out = result.to_dict(m)
+        assignment = out.pop("assignment")
+        out["nash_stable"] = proofs.is_nash_stable(m, a)
+        out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
+        # strict pairwise stability coincides with Nash stability under the paper's
+        # reward; the pareto notion is the informative one, so report it too
+        out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
+        out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
+        out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
+        out["assignment"] = assignment
+        if args.json:
+            emit_json(out)
+        else:
+            yes_no = {True: "yes", False: "no"}
+            print(
+                f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
+                f"({out['percent_utility']:.2f}%), {result.iterations} iterations, "
+                f"{result.rounds} rounds, {result.messages} messages, {result.bytes} bytes, "
+                f"nash stable {yes_no[out['nash_stable']]}, "
+                f"pairwise stable {yes_no[out['pairwise_stable']]}, {result.seconds:.3f} s"
+            )
+            sys.stdout.write(a.to_json(m))
+        return EXIT_OK
+
+    return run
+
+
 def _add_check(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
     sub.add_argument("assignment", metavar="ASSIGNMENT", help="assignment JSON file ('-' = stdin)")
@@ -278,67 +333,12 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
-def _add_run(sub: argparse.ArgumentParser) -> Handler:
-    sub.add_argument(
-        "algorithm", metavar="ALGORITHM", help="heuristic: grape-s, pair-grape-s"
-    )
-    sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
-    sub.add_argument(
-        "--seed",
-        type=_whole_number(0),
-        default=None,
-        metavar="X",
-        help="random seed (same seed, same run); default: fresh",
-    )
-    sub.add_argument(
-        "--order",
-        choices=("index", "random"),
-        default="index",
-        help="robot order each round: index (default, the seed's simulator) or seeded random",
-    )
-    sub.add_argument("--json", action="store_true", help="print one JSON object")
-
-    def run(args: argparse.Namespace) -> int:
-        import proofs
-        from heuristics.registry import get_algorithm
-
-        algorithm = get_algorithm(args.algorithm)
-        m = load_mission(args.mission)
-        result = algorithm(m, seed=args.seed, order=args.order)
-        a = result.assignment
-        out = result.to_dict(m)
-        assignment = out.pop("assignment")
-        out["nash_stable"] = proofs.is_nash_stable(m, a)
-        out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
-        # strict pairwise stability coincides with Nash stability under the paper's
-        # reward; the pareto notion is the informative one, so report it too
-        out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
-        out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
-        out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
-        out["assignment"] = assignment
-        if args.json:
-            emit_json(out)
-        else:
-            yes_no = {True: "yes", False: "no"}
-            print(
-                f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
-                f"({out['percent_utility']:.2f}%), {result.iterations} iterations, "
-                f"{result.rounds} rounds, {result.messages} messages, {result.bytes} bytes, "
-                f"nash stable {yes_no[out['nash_stable']]}, "
-                f"pairwise stable {yes_no[out['pairwise_stable']]}, {result.seconds:.3f} s"
-            )
-            sys.stdout.write(a.to_json(m))
-        return EXIT_OK
-
-    return run
-
-
 _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] = [
     ("generate", "a random mission from the seed's instance family", _add_generate),
     ("validate", "check a mission file", _add_validate),
     ("solve", "the exact optimum of a mission (ILP, HiGHS)", _add_solve),
-    ("check", "validity, utility and stability of an assignment", _add_check),
     ("run", "one heuristic on a mission: utility, cost and stability", _add_run),
+    ("check", "validity, utility and stability of an assignment", _add_check),
     ("audit", "the main job: the seed's claims and the optimal-gap report", _add_audit),
 ]
 

@@ -7,13 +7,15 @@
 >>> run.assignment.percent_utility(m), run.iterations, run.rounds
 (100.0, 30, 31)
 >>> sorted(heuristics.ALGORITHMS)
-['grape-s', 'pair-grape-s']
+['grape-s', 'pair-grape-s', 'rachna-dt', 'sda']
 """
 
 from heuristics._run import Run, belief_bytes, broadcast_cost
 from heuristics.grape_s import grape_s
 from heuristics.pair_grape_s import pair_grape_s
+from heuristics.rachna import rachna_dt
 from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm, run_algorithm
+from heuristics.sda import sda
 
 __all__ = [
     "ALGORITHMS",
@@ -24,5 +26,7 @@ __all__ = [
     "get_algorithm",
     "grape_s",
     "pair_grape_s",
+    "rachna_dt",
     "run_algorithm",
+    "sda",
 ]

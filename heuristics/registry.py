@@ -15,16 +15,20 @@ from cfopt import Mission, MissionError
 from heuristics._run import Run
 from heuristics.grape_s import grape_s
 from heuristics.pair_grape_s import pair_grape_s
+from heuristics.rachna import rachna_dt
+from heuristics.sda import sda
 
 __all__ = ["ALGORITHMS", "algorithm_names", "get_algorithm", "run_algorithm"]
 
 Algorithm = Callable[..., Run]
 
-#: Name -> function, read-only.
+#: Name -> function, read-only.  SDA (``sda``) and RACHNA_dt (``rachna-dt``) come later.
 ALGORITHMS: Mapping[str, Algorithm] = MappingProxyType(
     {
         "grape-s": grape_s,
         "pair-grape-s": pair_grape_s,
+        "sda": sda,
+        "rachna-dt": rachna_dt,
     }
 )
 
@@ -33,7 +37,7 @@ def algorithm_names() -> list[str]:
     """The registered names, sorted.
 
     >>> algorithm_names()
-    ['grape-s', 'pair-grape-s']
+    ['grape-s', 'pair-grape-s', 'rachna-dt', 'sda']
     """
     return sorted(ALGORITHMS)
 

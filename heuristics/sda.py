@@ -1,0 +1,380 @@
+"""SDA: the simultaneous descending auction, the seed's first auction baseline.
+
+The original protocol paper is not available; this is the toolkit's reading of the seed's
+§3.1 (algorithms.md §6), with every open choice stated in :func:`sda`'s Notes.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+import numpy.typing as npt
+
+from cfopt import Assignment, Mission, MissionError
+from heuristics._auction import (
+    ENTRY_BYTES,
+    HEADER_BYTES,
+    BundleFinder,
+    check_eps,
+    check_mission,
+    check_order,
+)
+from heuristics._run import Run, seed_label
+
+__all__ = ["SCHEDULES", "sda"]
+
+SeedLike = int | np.random.Generator | None
+#: The wage decrement schedules.
+SCHEDULES = ("max-wage", "uniform")
+
+
+def sda(
+    mission: Mission,
+    *,
+    eps: float | Fraction = 1.0,
+    schedule: str = "max-wage",
+    seed: SeedLike = None,
+    order: str = "index",
+) -> Run:
+    """Run the simultaneous descending auction (centralized, synchronous) on ``mission``.
+
+    Parameters
+    ----------
+    mission : cfopt.Mission
+    eps : float or Fraction, default 1.0
+        The wage decrement ``eps_d`` (> 0), taken at its exact value.
+    schedule : {"max-wage", "uniform"}
+        ``"max-wage"`` (the seed's example): each round lowers by ``eps`` the wage of the
+        single unsold robot with the highest wage, ties to the lowest index.
+        ``"uniform"``: each round lowers every unsold robot's wage by ``eps``.
+    seed : None, int or numpy.random.Generator
+        Recorded only: SDA makes no random choice (every tie goes to the lowest index).
+    order : {"index"}
+        Accepted for the registry's common signature; there is no robot order to choose.
+
+    Returns
+    -------
+    Run
+        ``algorithm="sda"``; ``iterations`` = rounds with at least one award; ``trajectory``
+        one row ``(iteration, robot, task, service)`` per sold robot.
+
+    Notes
+    -----
+    The auction (algorithms.md §6).  Every robot has a wage ``max(0, u_max + eps - d eps)``
+    after ``d`` decrements.  Round ``t``: (1) the schedule decrements (floored at 0; when
+    every unsold wage is 0 nothing changes); (2) every task not yet staffed finds its
+    cheapest complete bundle of unsold robots (the cost is the sum of their current wages)
+    and bids when the cost is ``<= u[j]``; (3) bids are awarded in order of decreasing
+    surplus ``u[j] - cost``, ties to the lowest task index; a bid whose bundle lost a robot
+    to an earlier award of the round is recomputed on the remaining robots at the same wages
+    and, if still affordable, re-enters the order with its new surplus (a lazy priority
+    queue: the awarded bid is always the one with the largest *current* surplus); awarded
+    robots are sold for good.  The auction stops at the end of the round in which all robots
+    are sold, every task is staffed, or every unsold wage is 0 (at wage 0 every task that
+    has a complete bundle can afford it, so step 3 has then placed all that can be placed).
+    A task that cannot be staffed still waits until that round: the quiet rounds are counted.
+
+    Choices where §6 is open: the bundle tie-break (among bundles of equal cost, the least
+    sum of robot indices; see :mod:`heuristics._auction`); the award order on re-bids
+    (current surplus, above); wages are exact rationals (``fractions.Fraction``) and every
+    comparison ``cost <= u[j]`` and every surplus comparison is exact; the stopping round.
+
+    Exact engine.  Between two award rounds the unsold set is fixed, so the wages are a
+    closed-form function of the round: under ``max-wage`` the unsold robots, in index order,
+    are decremented round-robin (the robot with the highest wage is the one with the fewest
+    decrements, ties lowest index), so after ``x`` decrements among ``q`` unsold robots the
+    one at position ``p`` has had ``ceil((x - p) / q)`` (capped at ``D = ceil((u_max + eps) /
+    eps)``, when its wage is 0) -- at most two wage levels at any time; under ``uniform``
+    all unsold robots have the same wage.  A task's cheapest cost never rises while the
+    unsold set is fixed, and at most two wage levels make it ``k lo + (hi - lo) h`` where
+    ``h`` is the least number of high-wage robots in a complete bundle (a 0/1-weighted
+    matching, exact).  The engine therefore jumps from award round to award round: after
+    each award round it finds every task's first affordable round -- the sweep in which
+    ``k wage`` crosses ``u[j]`` in closed form, then a binary search inside that sweep
+    (``log2 q`` matchings) -- visiting tasks in order of that sweep and stopping as soon as
+    the next sweep starts after the best round found.  It produces exactly the
+    round-by-round trajectory (tests compare it with a literal transcription).
+
+    Counting.  ``rounds``: rounds run (at most ``n D`` under ``max-wage``, ``D`` under
+    ``uniform``; ``D = ceil(u_max / eps) + 1``).  Messages (header 8 bytes, entries 12
+    bytes): each wage decrement is announced by every service agent of the robot to every
+    unstaffed task needing that service (one entry; ``uniform``: one message per service
+    agent and unstaffed task needing it, one entry per unsold robot of the service); a bid
+    is one message to each service agent of the task's needed services (``r_js`` entries);
+    every bid message is answered (accept or reject, header only); after an award round
+    each service agent that sold robots tells every still unstaffed task needing its service
+    (one entry per sold robot).  ``work`` counts the cost-matrix entries of the bundle
+    selections the literal auction performs: every round, every unstaffed task matches
+    ``(unsold robots having one of its services) x k_j`` entries, and so does each re-bid;
+    the engine itself does far less (it restricts candidates, see :mod:`heuristics._auction`).
+
+    Complexity: O(m) award rounds, each costing O(m' (log q) M) where ``m'`` is the number of
+    tasks whose crossing sweep is near the front and ``M`` one matching on at most
+    ``k_j |S_j|`` candidates, plus O(n S) bookkeeping.
+
+    Examples
+    --------
+    >>> import cfopt
+    >>> m = cfopt.Mission.from_arrays([[1], [1], [1]], [[2], [1]], [10, 4])
+    >>> run = sda(m)
+    >>> run.assignment.task.tolist(), run.assignment.utility(m)
+    ([0, 0, 1], 14.0)
+    >>> run.rounds, run.iterations
+    (19, 2)
+    """
+    started = time.perf_counter()
+    check_mission(mission)
+    eps_q = check_eps(eps)
+    if schedule not in SCHEDULES:
+        raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
+    check_order(order)
+    np.random.default_rng(seed)  # validates the seed; SDA draws nothing
+    out = _core(mission, eps_q, schedule)
+    return Run(
+        algorithm="sda",
+        assignment=Assignment(task=out.task, service=out.service),
+        iterations=out.iterations,
+        rounds=out.rounds,
+        messages=out.messages,
+        bytes=out.bytes,
+        work=out.work,
+        seconds=time.perf_counter() - started,
+        seed=seed_label(seed),
+        trajectory=np.array(out.moves, dtype=np.int64).reshape(-1, 4),
+        options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order)),
+    )
+
+
+@dataclass
+class _Outcome:
+    task: npt.NDArray[np.int64]
+    service: npt.NDArray[np.int64]
+    iterations: int = 0
+    rounds: int = 0
+    messages: int = 0
+    bytes: int = 0
+    work: int = 0
+    moves: list[tuple[int, int, int, int]] = field(default_factory=list)
+
+
+def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
+    """The auction; see :func:`sda` Notes for the method."""
+    caps, reqs = mission.capabilities, mission.requirements
+    n = caps.shape[0]
+    m = reqs.shape[0]
+    out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
+    if n == 0 or m == 0:
+        return out
+    uniform = schedule == "uniform"
+    finder = BundleFinder(caps, reqs)
+    u = [Fraction(float(x)) for x in mission.utilities.tolist()]
+    w0 = max(u) + eps
+    D = math.ceil(w0 / eps)  # decrements that bring a wage to 0
+
+    def wage(d: int) -> Fraction:
+        return max(Fraction(0), w0 - d * eps)
+
+    k = finder.k
+    # the first sweep level a at which k wage(a) <= u[j]: static per task
+    a_star = [min(D, max(0, math.ceil((k[j] * w0 - u[j]) / (k[j] * eps)))) for j in range(m)]
+    by_level = sorted(range(m), key=lambda j: (a_star[j], j))
+
+    needmask = reqs > 0  # m x S
+    caps64 = caps.astype(np.int64)
+    need64 = needmask.astype(np.int64)
+    rows = ((caps64 @ need64.T) > 0).sum(axis=0).astype(np.int64)  # unsold robots per task
+    k_arr = np.array(k, dtype=np.int64)
+    staffed = np.zeros(m, dtype=bool)
+    dead = np.zeros(m, dtype=bool)
+    unsold = np.ones(n, dtype=bool)
+    alive = np.arange(n, dtype=np.int64)  # unsold robots, ascending
+    pos = np.arange(n, dtype=np.int64)  # position in ``alive``; -1 when sold
+    d_arr = np.zeros(n, dtype=np.int64)
+    pools = [r.copy() for r in finder.robots_with]
+    A = need64.sum(axis=0)  # unstaffed tasks needing each service
+    R = 0  # rounds completed
+    total = 0  # max-wage: decrements among the unsold robots (sum of their d)
+
+    def clock(t: int) -> int:
+        """Decrement clock at round t (> R): decrements under max-wage, rounds otherwise."""
+        if uniform:
+            return min(t, D)
+        return min(alive.size * D, total + (t - R))
+
+    def weights_at(x: int, robots: npt.NDArray[np.int64]) -> tuple[Fraction, Fraction, npt.NDArray]:
+        """(high wage, low wage, 0/1 weight of ``robots`` = has the high wage) at clock x."""
+        if uniform:
+            return wage(x), wage(x), np.zeros(robots.size, dtype=np.int64)
+        q = alive.size
+        a = x // q
+        hi, lo = wage(a), wage(a + 1)
+        if hi == lo:
+            return hi, lo, np.zeros(robots.size, dtype=np.int64)
+        d = (x - pos[robots] + q - 1) // q
+        return hi, lo, (d == a).astype(np.int64)
+
+    wfull = np.zeros(n, dtype=np.int64)
+
+    def min_cost(j: int, x: int) -> Fraction | None:
+        hi, lo, wt = weights_at(x, alive)
+        wfull[alive] = wt
+        b = finder.cheapest(j, pools, wfull)
+        if b is None:
+            return None
+        return k[j] * lo + (hi - lo) * b.weight
+
+    def first_round(j: int) -> int | None:
+        """First round > R in which task j can afford a bundle (None: never)."""
+        zero = np.zeros(n, dtype=np.int64)
+        if finder.cheapest(j, pools, zero) is None:
+            return None
+        if uniform:
+            return max(R + 1, a_star[j])
+        q = alive.size
+        hi_x = a_star[j] * q  # all robots at level a_star: affordable
+        lo_x = max(total, (a_star[j] - 1) * q)  # not affordable
+        hi_x = max(hi_x, lo_x + 1)
+        while hi_x - lo_x > 1:
+            mid = (lo_x + hi_x) // 2
+            c = min_cost(j, mid)
+            if c is not None and c <= u[j]:
+                hi_x = mid
+            else:
+                lo_x = mid
+        return R + (hi_x - total)
+
+    def lower_bound(j: int) -> int:
+        if uniform:
+            return max(R + 1, a_star[j])
+        q = alive.size
+        return R + max(1, (a_star[j] - 1) * q + 1 - total)
+
+    def quiet(t_from: int, t_to: int) -> None:
+        """Account rounds t_from..t_to (inclusive): decrement notices and literal work."""
+        if t_to < t_from:
+            return
+        nr = t_to - t_from + 1
+        unst = ~staffed
+        out.work += nr * int((rows[unst] * k_arr[unst]).sum())
+        if uniform:
+            dec_rounds = max(0, min(t_to, D) - t_from + 1)
+            sizes = np.array([p.size for p in pools], dtype=np.int64)
+            has = sizes > 0
+            out.messages += dec_rounds * int(A[has].sum())
+            out.bytes += dec_rounds * int((A * (HEADER_BYTES + ENTRY_BYTES * sizes))[has].sum())
+            return
+        q = alive.size
+        x0 = min(q * D, total + (t_from - 1 - R))
+        x1 = min(q * D, total + (t_to - R))
+        if x1 <= x0:
+            return
+        wt = caps64[alive] @ A  # notices per decrement of each unsold robot
+        pref = np.concatenate(([0], np.cumsum(wt)))
+
+        def upto(x: int) -> int:
+            full, rest = divmod(x, q)
+            return full * int(pref[q]) + int(pref[rest])
+
+        msgs = upto(x1) - upto(x0)
+        out.messages += msgs
+        out.bytes += msgs * (HEADER_BYTES + ENTRY_BYTES)
+
+    while alive.size and not staffed.all():
+        # ---- find the next award round and its bidders
+        best: int | None = None
+        bidders: list[int] = []
+        for j in by_level:
+            if staffed[j] or dead[j]:
+                continue
+            if best is not None and lower_bound(j) > best:
+                break
+            t = first_round(j)
+            if t is None:
+                dead[j] = True
+            elif best is None or t < best:
+                best, bidders = t, [j]
+            elif t == best:
+                bidders.append(j)
+        if best is None:  # nobody will ever bid: the wages run down to 0
+            end = R + (D - R if uniform else alive.size * D - total)
+            quiet(R + 1, end)
+            R = max(R, end)
+            break
+        quiet(R + 1, best)
+        x = clock(best)
+        if uniform:
+            d_arr[alive] = x
+        else:
+            q = alive.size
+            d_arr[alive] = (x - pos[alive] + q - 1) // q
+        hi, lo, wt = weights_at(x, alive)
+        wfull[alive] = wt
+        R = best
+        out.iterations += 1
+        it = out.iterations
+        sold_round = np.zeros(n, dtype=bool)
+        heap: list[tuple[Fraction, int, int]] = []
+        bundles = {}
+        for j in sorted(bidders):
+            b = finder.cheapest(j, pools, wfull)
+            assert b is not None
+            bundles[j] = b
+            cost = k[j] * lo + (hi - lo) * b.weight
+            heapq.heappush(heap, (cost - u[j], j, 0))
+            _bid_messages(out, finder, j)
+        while heap:
+            _, j, _ = heapq.heappop(heap)
+            b = bundles[j]
+            n_msg = len(finder.need[j])
+            out.messages += n_msg  # the answers
+            out.bytes += n_msg * HEADER_BYTES
+            if sold_round[b.robots].any():  # rejected: recompute on what is left
+                out.work += int(rows[j]) * k[j]
+                nb = finder.cheapest(j, pools, wfull)
+                if nb is None:
+                    dead[j] = True
+                    continue
+                cost = k[j] * lo + (hi - lo) * nb.weight
+                if cost <= u[j]:
+                    bundles[j] = nb
+                    heapq.heappush(heap, (cost - u[j], j, 0))
+                    _bid_messages(out, finder, j)
+                continue
+            staffed[j] = True
+            sold_round[b.robots] = True
+            out.task[b.robots] = j
+            out.service[b.robots] = b.services
+            for r, s in sorted(zip(b.robots.tolist(), b.services.tolist(), strict=True)):
+                out.moves.append((it, r, j, s))
+            A -= need64[j]
+            rows -= ((caps64[b.robots] @ need64.T) > 0).sum(axis=0)
+            for s in np.flatnonzero(caps[b.robots].any(axis=0)).tolist():
+                pools[s] = pools[s][~sold_round[pools[s]]]
+        # sold notices to the tasks still unstaffed
+        sold_per_service = caps64[sold_round].sum(axis=0)
+        has = sold_per_service > 0
+        out.messages += int(A[has].sum())
+        out.bytes += int((A * (HEADER_BYTES + ENTRY_BYTES * sold_per_service))[has].sum())
+        unsold &= ~sold_round
+        alive = np.flatnonzero(unsold).astype(np.int64)
+        pos[:] = -1
+        pos[alive] = np.arange(alive.size)
+        total = int(d_arr[alive].sum())
+        if uniform:
+            if x >= D:
+                break
+        elif alive.size and total >= alive.size * D:
+            break
+    out.rounds = R
+    return out
+
+
+def _bid_messages(out: _Outcome, finder: BundleFinder, j: int) -> None:
+    counts = finder.counts[j]
+    out.messages += len(counts)
+    out.bytes += len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts)
