@@ -20,7 +20,7 @@ from cfopt.generate import (
     paper_distributed_grid,
     paper_grid,
 )
-from cfopt.mission import MISSION_FORMAT, Mission
+from cfopt.mission import MISSION_FORMAT, Mission, require_mission
 
 __version__ = "0.1.0"
 
@@ -39,5 +39,6 @@ __all__ = [
     "generate_with_witness",
     "paper_distributed_grid",
     "paper_grid",
+    "require_mission",
     "solve_exact",
 ]

@@ -36,7 +36,7 @@ from networkx.algorithms.flow import edmonds_karp
 
 from cfopt.assignment import UNASSIGNED, Assignment
 from cfopt.errors import MissionError, describe
-from cfopt.mission import Mission
+from cfopt.mission import Mission, require_mission
 
 if TYPE_CHECKING:  # cvxpy takes a second or two to import: only solve_exact pays for it
     import cvxpy as cp
@@ -230,8 +230,7 @@ def solve_exact(
     import cvxpy  # noqa: F401  (a one-time import of about a second: not the solve's time)
 
     start = time.perf_counter()
-    if not isinstance(mission, Mission):
-        raise MissionError(f"mission: must be a cfopt.Mission, got {type(mission).__name__}")
+    require_mission(mission)
     time_limit, formulation, mip_gap = _check_options(time_limit, formulation, mip_gap)
     reduced = _presolve(mission)
     if reduced.n_tasks == 0 or reduced.n_robots == 0:

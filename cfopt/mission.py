@@ -289,6 +289,21 @@ class Mission:
         return [list(per_kind[k]) for k in which.reshape(-1).tolist()]
 
 
+def require_mission(value: Any) -> Mission:
+    """Return ``value`` if it is a :class:`Mission`; raise :class:`MissionError` otherwise.
+
+    The one argument check every solver, heuristic and checker entry point shares.
+
+    >>> require_mission("m.json")
+    Traceback (most recent call last):
+    ...
+    cfopt.errors.MissionError: mission: must be a cfopt.Mission, got str
+    """
+    if not isinstance(value, Mission):
+        raise MissionError(f"mission: must be a cfopt.Mission, got {type(value).__name__}")
+    return value
+
+
 # ---------------------------------------------------------------------- array checks
 def _names(prefix: str, count: int) -> tuple[str, ...]:
     return tuple(f"{prefix}{i}" for i in range(count))

@@ -57,9 +57,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import linear_sum_assignment
 
-from cfopt import Mission, MissionError
+from cfopt import MissionError
 
-__all__ = ["ENTRY_BYTES", "HEADER_BYTES", "Bundle", "BundleFinder", "check_eps", "check_mission"]
+__all__ = ["ENTRY_BYTES", "HEADER_BYTES", "Bundle", "BundleFinder", "check_eps"]
 
 #: Message header: int32 round + int32 sender.
 HEADER_BYTES = 8
@@ -67,13 +67,6 @@ HEADER_BYTES = 8
 ENTRY_BYTES = 12
 _EXACT = 2**53
 _KEY_SAFE = 2**61
-
-
-def check_mission(mission: Any) -> Mission:
-    """Raise unless ``mission`` is a :class:`cfopt.Mission`."""
-    if not isinstance(mission, Mission):
-        raise MissionError(f"mission: must be a cfopt.Mission, got {type(mission).__name__}")
-    return mission
 
 
 def check_eps(eps: Any, name: str = "eps") -> Fraction:

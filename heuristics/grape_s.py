@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission, MissionError
+from cfopt import Assignment, Mission, require_mission
 from heuristics._run import Run, broadcast_cost, check_order, seed_label
 from heuristics.reward import VOID, RewardModel, reward_model
 
@@ -107,7 +107,7 @@ def grape_s(
     [[1, 2, 0, 0], [2, 1, 0, 0], [3, 0, 1, 0]]
     """
     started = time.perf_counter()
-    _check_mission(mission)
+    require_mission(mission)
     check_order(order)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)
@@ -126,11 +126,6 @@ def grape_s(
         trajectory=np.array(out.moves, dtype=np.int64).reshape(-1, 4),
         options=(("order", order), ("capped", bool(capped)), ("reward", reward)),
     )
-
-
-def _check_mission(mission: Any) -> None:
-    if not isinstance(mission, Mission):
-        raise MissionError(f"mission: must be a cfopt.Mission, got {type(mission).__name__}")
 
 
 @dataclass

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission
+from cfopt import Assignment, Mission, require_mission
 from heuristics._run import Run, broadcast_cost, check_order, seed_label
-from heuristics.grape_s import SeedLike, _check_mission, _core
+from heuristics.grape_s import SeedLike, _core
 from heuristics.reward import RewardModel, reward_model
 
 __all__ = ["pair_grape_s"]
@@ -81,7 +81,7 @@ def pair_grape_s(
     (True, 1, 2, [[1, 1, 0, 0], [2, 0, 0, 0], [2, 1, 1, 1]])
     """
     started = time.perf_counter()
-    _check_mission(mission)
+    require_mission(mission)
     check_order(order)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)

@@ -16,13 +16,12 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission
+from cfopt import Assignment, Mission, require_mission
 from heuristics._auction import (
     ENTRY_BYTES,
     HEADER_BYTES,
     BundleFinder,
     check_eps,
-    check_mission,
     check_order,
 )
 from heuristics._run import Run, seed_label
@@ -112,7 +111,7 @@ def rachna_dt(
     ([1, 0], 2, 3)
     """
     started = time.perf_counter()
-    check_mission(mission)
+    require_mission(mission)
     n = mission.n_robots
     eps_q = Fraction(1, max(n, 1)) if eps is None else check_eps(eps)
     check_order(order)

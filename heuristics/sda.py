@@ -15,13 +15,12 @@ from fractions import Fraction
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission, MissionError
+from cfopt import Assignment, Mission, MissionError, require_mission
 from heuristics._auction import (
     ENTRY_BYTES,
     HEADER_BYTES,
     BundleFinder,
     check_eps,
-    check_mission,
     check_order,
 )
 from heuristics._run import Run, seed_label
@@ -128,7 +127,7 @@ def sda(
     (19, 2)
     """
     started = time.perf_counter()
-    check_mission(mission)
+    require_mission(mission)
     eps_q = check_eps(eps)
     if schedule not in SCHEDULES:
         raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
