@@ -171,6 +171,22 @@ class Mission:
 
     __hash__ = None  # type: ignore[assignment]
 
+    def __getstate__(self) -> dict[str, Any]:
+        # mappingproxy does not pickle; missions travel to worker processes in sweeps
+        state = {k: v for k, v in self.__dict__.items() if k in self.__dataclass_fields__}
+        if state["metadata"] is not None:
+            state["metadata"] = dict(state["metadata"])
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        for name in ("capabilities", "requirements", "utilities"):
+            array = np.array(state[name], copy=True)
+            array.setflags(write=False)
+            state[name] = array
+        if state["metadata"] is not None:
+            state["metadata"] = _frozen_metadata(state["metadata"])
+        self.__dict__.update(state)
+
     def __repr__(self) -> str:
         label = f" {self.name!r}" if self.name else ""
         return (

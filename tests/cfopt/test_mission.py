@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -110,6 +111,15 @@ def test_mission_is_frozen_and_its_arrays_read_only() -> None:
         m.requirements[0, 0] = 5
     with pytest.raises(TypeError):
         m.metadata["k"] = 2  # type: ignore[index]
+
+
+def test_missions_pickle_for_worker_processes() -> None:
+    m = Mission.from_arrays([[1, 0]], [[1, 0]], [3.0], metadata={"k": [1], "g": {"seed": 2}})
+    again = pickle.loads(pickle.dumps(m))
+    assert again == m
+    assert not again.requirements.flags.writeable
+    with pytest.raises(TypeError):
+        again.metadata["k"] = 2  # type: ignore[index]
 
 
 def test_empty_robots_and_tasks_are_allowed() -> None:
