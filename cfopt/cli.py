@@ -169,16 +169,58 @@ def _add_validate(sub: argparse.ArgumentParser) -> Handler:
 
 
 def _add_audit(sub: argparse.ArgumentParser) -> Handler:
-    sub.add_argument("--quick", action="store_true", help="a smaller grid (about 2 minutes)")
+    sub.add_argument(
+        "--quick",
+        action="store_true",
+        help="100-robot cells only, 2 missions each, claims budget 5 (about a minute)",
+    )
+    sub.add_argument(
+        "--claims-only",
+        action="store_true",
+        help="only the claims: the verdict table, counterexamples in DIR/counterexamples",
+    )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
-    sub.add_argument("-o", "--output", metavar="DIR", help="report directory")
+    sub.add_argument(
+        "-o",
+        "--output",
+        default="cfopt-audit",
+        metavar="DIR",
+        help="report directory (default: cfopt-audit); its trials.sqlite lets an "
+        "interrupted audit resume",
+    )
+    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument(
+        "--workers",
+        type=_whole_number(1),
+        default=None,
+        metavar="N",
+        help="worker processes (default: the usable CPUs; 1 = this process)",
+    )
 
     def run(args: argparse.Namespace) -> int:
-        raise MissionError(
-            "cfopt audit is not available in this version yet: it needs the exact solver, "
-            "the heuristics and the claims checkers, which are still being built "
-            "(available now: generate, validate)"
+        from cfopt.report import run_audit
+
+        result = run_audit(
+            args.output,
+            quick=args.quick,
+            claims_only=args.claims_only,
+            workers=args.workers,
+            force=args.force,
         )
+        if args.json:
+            emit_json(result.to_dict())
+        else:
+            from proofs.claims import format_verdict_table
+
+            if result.report is not None:
+                print(result.report.summary)
+                print()
+            print(format_verdict_table(result.verdicts))
+            for path in result.claim_files:
+                print(f"counterexample: {path}")
+            if result.report is not None:
+                print(f"report: {result.report.markdown}  {result.report.html}")
+        return _report_failures(result.outcome, result.failures)
 
     return run
 
@@ -333,6 +375,217 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
+def _report_failures(outcome: Any, claim_failures: Sequence[tuple[str, str]] = ()) -> int:
+    """Print the tracebacks of trials and claim checks that raised; exit 1 if any did."""
+    trial_failures = list(outcome.failures) if outcome is not None else []
+    for cell, seed, algorithm, trace in trial_failures:
+        sys.stderr.write(f"trial {algorithm} on {cell} (mission seed {seed}) failed:\n{trace}\n")
+    for claim_id, trace in claim_failures:
+        sys.stderr.write(f"claim {claim_id}: the check failed:\n{trace}\n")
+    if trial_failures or claim_failures:
+        sys.stderr.write(
+            f"{len(trial_failures)} trials and {len(claim_failures)} claim checks failed "
+            "(a bug); finished trials are kept and the next run retries the rest\n"
+        )
+        return EXIT_BUG
+    return EXIT_OK
+
+
+def _number_list(kind: Callable[[str], Any]) -> Callable[[str], list[Any]]:
+    def parse(text: str) -> list[Any]:
+        items = [item.strip() for item in text.split(",") if item.strip()]
+        if not items:
+            raise argparse.ArgumentTypeError(f"must be a comma-separated list, got {text!r}")
+        return [kind(item) for item in items]
+
+    return parse
+
+
+def _composition(text: str) -> tuple[int, int]:
+    from cfopt.experiments import parse_composition
+
+    try:
+        return parse_composition(text)
+    except MissionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument(
+        "--grid",
+        default=None,
+        metavar="NAME|FILE",
+        help="paper (default: the seed's 32 cells), paper-distributed (100 and 500 robots), "
+        "audit, quick, or a .toml/.json grid file",
+    )
+    sub.add_argument(
+        "--robots",
+        type=_number_list(_whole_number(1)),
+        metavar="N[,N...]",
+        help="a custom grid instead of --grid: the product of these sizes, --percent-tasks "
+        "and --compositions",
+    )
+    sub.add_argument(
+        "--percent-tasks",
+        type=_number_list(_positive_number),
+        metavar="P[,P...]",
+        help="with --robots (default: 1,10,50)",
+    )
+    sub.add_argument(
+        "--compositions",
+        type=_number_list(_composition),
+        metavar="S:K[,S:K...]",
+        help="with --robots: service types:services per robot (default: 5:1,5:5,10:1,10:5)",
+    )
+    sub.add_argument(
+        "--load",
+        type=_number_list(_positive_number),
+        metavar="L[,L...]",
+        help="mission loads (1 achievable, >1 over-subscribed); for paper, "
+        "paper-distributed and custom grids (default: 1)",
+    )
+    sub.add_argument(
+        "--missions",
+        type=_whole_number(1),
+        default=None,
+        metavar="K",
+        help="missions per cell (default: the grid's: 25 paper, 4 audit, 2 quick, 5 custom)",
+    )
+    sub.add_argument(
+        "--algorithms",
+        type=_number_list(str),
+        default=None,
+        metavar="A[,A...]",
+        help="heuristics to run (default: all registered); the exact solve always runs",
+    )
+    sub.add_argument(
+        "--base-seed",
+        type=_whole_number(0),
+        default=0,
+        metavar="X",
+        help="base seed of the missions (default 0)",
+    )
+    sub.add_argument(
+        "--time-limit",
+        type=_positive_number,
+        default=60.0,
+        metavar="SEC",
+        help="seconds per exact solve; an optimum not proven by then is marked (default 60)",
+    )
+    sub.add_argument(
+        "--workers",
+        type=_whole_number(1),
+        default=None,
+        metavar="N",
+        help="worker processes (default: the usable CPUs; 1 = this process)",
+    )
+    sub.add_argument(
+        "--store",
+        default="cfopt-sweep.sqlite",
+        metavar="FILE",
+        help="SQLite result store, created or resumed (default: cfopt-sweep.sqlite)",
+    )
+    sub.add_argument("--quiet", action="store_true", help="no progress bar")
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+
+    def run(args: argparse.Namespace) -> int:
+        from cfopt import experiments
+
+        custom = args.robots is not None
+        if not custom and (args.percent_tasks or args.compositions):
+            raise MissionError("--percent-tasks and --compositions need --robots (a custom grid)")
+        if custom and args.grid is not None:
+            raise MissionError("give either --grid or --robots (a custom grid), not both")
+        missions = args.missions
+        if custom:
+            cells = experiments.product_grid(
+                args.robots,
+                args.percent_tasks or (1.0, 10.0, 50.0),
+                args.compositions or ((5, 1), (5, 5), (10, 1), (10, 5)),
+                args.load or (1.0,),
+            )
+            missions = missions or 5
+        else:
+            grid = args.grid or "paper"
+            if grid in experiments.GRIDS:
+                cells = experiments.named_grid(grid, args.load)
+                missions = missions or experiments.GRIDS[grid][1]
+            else:
+                if args.load:
+                    raise MissionError("--load: a grid file sets its own loads")
+                cells, file_missions = experiments.grid_from_file(grid)
+                missions = missions or file_missions or 5
+        sweep = experiments.Sweep(
+            cells=cells,
+            missions=missions,
+            algorithms=args.algorithms,
+            base_seed=args.base_seed,
+            time_limit=args.time_limit,
+        )
+        outcome = experiments.run_sweep(
+            sweep, args.store, workers=args.workers, progress=not args.quiet
+        )
+        if args.json:
+            emit_json(
+                {
+                    "store": outcome.store,
+                    "code_version": outcome.code_version,
+                    "trials": outcome.total,
+                    "completed": outcome.completed,
+                    "skipped": outcome.skipped,
+                    "failed": len(outcome.failures),
+                    "seconds": outcome.seconds,
+                }
+            )
+        else:
+            print(
+                f"{outcome.store}: {outcome.completed} trials run, {outcome.skipped} already "
+                f"stored, {len(outcome.failures)} failed, of {outcome.total} "
+                f"({len(sweep.cells)} cells x {sweep.missions} missions x "
+                f"{len(sweep.algorithms or ())} algorithms), {outcome.seconds:.1f} s"
+            )
+        return _report_failures(outcome)
+
+    return run
+
+
+def _add_report(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument("store", metavar="STORE", help="SQLite result store of cfopt sweep")
+    sub.add_argument(
+        "-o",
+        "--output",
+        default="cfopt-report",
+        metavar="DIR",
+        help="report directory (default: cfopt-report)",
+    )
+    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument(
+        "--code-version",
+        default=None,
+        metavar="V",
+        help="report the trials of this code version (default: the most recent)",
+    )
+    sub.add_argument("--json", action="store_true", help="print the gap report as one JSON object")
+
+    def run(args: argparse.Namespace) -> int:
+        from cfopt.report import report_from_store
+
+        report = report_from_store(
+            args.store, args.output, version=args.code_version, force=args.force
+        )
+        if args.json:
+            gap = dict(report.gap_report)
+            gap["report_directory"] = args.output
+            gap["files"] = [str(p) for p in report.files]
+            emit_json(gap)
+        else:
+            print(report.summary)
+            print(f"report: {report.markdown}  {report.html}")
+        return EXIT_OK
+
+    return run
+
+
 _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] = [
     ("generate", "a random mission from the seed's instance family", _add_generate),
     ("validate", "check a mission file", _add_validate),
@@ -340,6 +593,8 @@ _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] =
     ("run", "one heuristic on a mission: utility, cost and stability", _add_run),
     ("check", "validity, utility and stability of an assignment", _add_check),
     ("audit", "the main job: the seed's claims and the optimal-gap report", _add_audit),
+    ("sweep", "run grid cells x missions x algorithms into a result store", _add_sweep),
+    ("report", "tables, statistics and plots from a result store", _add_report),
 ]
 
 

@@ -1,0 +1,1271 @@
+"""Optimal-gap reports: the seed's tables, statistics and box plots, from a result store.
+
+From the trials of a sweep (:mod:`cfopt.experiments`) this module builds what the seed
+paper's evaluation shows (``seed/grape-s-paper.tex`` §5, Tables 3-5 and Figures 1-4):
+
+* tables of ``median (min, max)`` per grid cell and algorithm for percent of optimum,
+  percent of total utility, runtime and communication (:func:`cell_table`);
+* the seed's non-parametric tests (:func:`statistics`): Kruskal-Wallis with pairwise
+  Mann-Whitney-Wilcoxon post-hoc tests across collective sizes and percent tasks,
+  Mann-Whitney-Wilcoxon between service-type and services-per-robot levels, and Friedman
+  across the algorithms with Conover's post-hoc test -- computed by ``scipy.stats`` and
+  ``scikit_posthocs``, never by hand;
+* box plots per composition (matplotlib, PNG, :func:`box_plots`);
+* the claims verdict table of :mod:`proofs.claims` when given.
+
+:func:`write_report` writes them as one Markdown report, CSV files and a self-contained
+HTML page (figures embedded as base64), and never replaces an existing file unless
+``force=True``.  matplotlib, scipy.stats and scikit_posthocs are imported only by the
+functions that need them.
+
+Examples
+--------
+>>> from cfopt.report import format_range
+>>> format_range([100.0, 96.5, 100.0])
+'100 (96.5, 100)'
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import math
+import os
+import time
+import warnings
+from collections import defaultdict
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cfopt.errors import MissionError
+from cfopt.experiments import EXACT, ResultStore, Trial
+
+__all__ = [
+    "METRICS",
+    "Metric",
+    "Report",
+    "TestResult",
+    "box_plots",
+    "cell_table",
+    "format_range",
+    "gap_report",
+    "load_trials",
+    "report_from_store",
+    "statistics",
+    "summary_rows",
+    "summary_text",
+    "write_report",
+]
+
+#: The significance level used in the statistics' wording.
+ALPHA = 0.05
+
+
+# ------------------------------------------------------------------------ metrics
+@dataclass(frozen=True)
+class Metric:
+    """A measured quantity of a trial: name, label, unit, how to read it."""
+
+    name: str
+    label: str
+    unit: str
+    value: Callable[[Trial], float | None]
+    heuristics_only: bool = True
+    log_scale: bool = False
+
+
+def _megabytes(t: Trial) -> float | None:
+    return None if t.bytes is None else t.bytes / 1e6
+
+
+#: The metrics of the tables and plots, in report order.
+METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric("percent_optimum", "Percent of optimum", "%", lambda t: t.percent_optimum),
+        Metric("percent_total", "Percent of total utility", "%", lambda t: t.percent_total),
+        Metric("seconds", "Runtime", "s", lambda t: t.seconds, False, True),
+        Metric("megabytes", "Total communication", "MB", _megabytes, True, True),
+    )
+}
+
+
+def _values(trials: Iterable[Trial], metric: Metric) -> list[float]:
+    out = []
+    for t in trials:
+        v = metric.value(t)
+        if v is not None and math.isfinite(v):
+            out.append(float(v))
+    return out
+
+
+def _fmt(x: float) -> str:
+    if x == 0:
+        return "0"
+    if abs(x) >= 1e4:
+        return f"{x:,.0f}"
+    if abs(x) >= 100:
+        return f"{x:.4g}"
+    return f"{x:.3g}"
+
+
+def format_range(values: Sequence[float]) -> str:
+    """``"median (min, max)"`` like the seed's Table 3; ``"-"`` for no values.
+
+    >>> format_range([0.12, 0.5, 3.0]), format_range([])
+    ('0.5 (0.12, 3)', '-')
+    """
+    if len(values) == 0:
+        return "-"
+    a = np.asarray(values, dtype=float)
+    return f"{_fmt(float(np.median(a)))} ({_fmt(float(a.min()))}, {_fmt(float(a.max()))})"
+
+
+def _algorithms(trials: Sequence[Trial]) -> list[str]:
+    names = sorted({t.algorithm for t in trials} - {EXACT})
+    return ([EXACT] if any(t.algorithm == EXACT for t in trials) else []) + names
+
+
+def _cell_key(t: Trial) -> tuple[float, int, int, float, int]:
+    return (t.load, t.service_types, t.services_per_robot, t.percent_tasks, t.robots)
+
+
+def _load_label(load: float) -> str:
+    if load == 1:
+        return "achievable (load 1)"
+    return f"over-subscribed (load {load:g})" if load > 1 else f"spare robots (load {load:g})"
+
+
+# ------------------------------------------------------------------------- loading
+def load_trials(
+    store: str | os.PathLike[str], version: str | None = None
+) -> tuple[list[Trial], str]:
+    """The trials of one code version of a store (default: the most recent one).
+
+    Raises :class:`cfopt.MissionError` for a missing or empty store.
+    """
+    if not Path(store).is_file():
+        raise MissionError(f"{os.fspath(store)}: no such result store")
+    with ResultStore(store) as db:
+        versions = db.code_versions()
+        if not versions:
+            raise MissionError(f"{os.fspath(store)}: the result store holds no trials yet")
+        if version is None:
+            version = versions[0]
+        elif version not in versions:
+            raise MissionError(
+                f"{os.fspath(store)}: no trials of code version {version!r} "
+                f"(stored: {', '.join(versions)})"
+            )
+        return db.trials(version), version
+
+
+# -------------------------------------------------------------------------- tables
+def summary_rows(trials: Sequence[Trial]) -> list[dict[str, Any]]:
+    """One row per (load, algorithm): the audit's summary table.
+
+    Keys: ``load``, ``algorithm``, ``trials``, ``percent_optimum`` / ``percent_total`` /
+    ``seconds`` / ``megabytes`` (each ``{"median", "min", "max"}`` or ``None``),
+    ``optimal`` (trials that reached the optimum), ``nash_stable``, ``pairwise_stable``
+    (trials judged stable), ``unproven_optima`` (trials scored against an optimum the
+    solver did not prove).
+    """
+    groups: dict[tuple[float, str], list[Trial]] = defaultdict(list)
+    for t in trials:
+        groups[(t.load, t.algorithm)].append(t)
+    order = {a: i for i, a in enumerate(_algorithms(trials))}
+    rows = []
+    for (load, algorithm), group in sorted(
+        groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])
+    ):
+        row: dict[str, Any] = {"load": load, "algorithm": algorithm, "trials": len(group)}
+        for metric in METRICS.values():
+            vals = _values(group, metric)
+            row[metric.name] = (
+                {"median": float(np.median(vals)), "min": min(vals), "max": max(vals)}
+                if vals
+                else None
+            )
+        row["optimal"] = sum(
+            1 for t in group if t.percent_optimum is not None and t.percent_optimum >= 100 - 1e-9
+        )
+        row["nash_stable"] = sum(t.nash_stable for t in group)
+        row["pairwise_stable"] = sum(t.pairwise_stable for t in group)
+        row["unproven_optima"] = sum(not t.optimum_proven for t in group)
+        rows.append(row)
+    return rows
+
+
+def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]:
+    header = [
+        "missions",
+        "algorithm",
+        "trials",
+        "% of optimum: median (min, max)",
+        "optimal",
+        "% of total: median (min, max)",
+        "seconds: median (max)",
+        "MB: median (max)",
+        "Nash stable",
+        "pairwise stable",
+    ]
+
+    def rng(d: dict[str, float] | None, with_min: bool = True) -> str:
+        if d is None:
+            return "-"
+        if with_min:
+            return f"{_fmt(d['median'])} ({_fmt(d['min'])}, {_fmt(d['max'])})"
+        return f"{_fmt(d['median'])} ({_fmt(d['max'])})"
+
+    body = []
+    for r in summary_rows(trials):
+        n = r["trials"]
+        star = "†" if r["unproven_optima"] else ""
+        body.append(
+            [
+                _load_label(r["load"]),
+                r["algorithm"],
+                str(n),
+                rng(r["percent_optimum"]) + star,
+                f"{r['optimal']}/{n}",
+                rng(r["percent_total"]),
+                rng(r["seconds"], False),
+                rng(r["megabytes"], False),
+                f"{r['nash_stable']}/{n}",
+                f"{r['pairwise_stable']}/{n}",
+            ]
+        )
+    return header, body
+
+
+def cell_table(trials: Sequence[Trial], metric: str | Metric) -> tuple[list[str], list[list[str]]]:
+    """The seed's Table 3 for every algorithm: ``median (min, max)`` per cell.
+
+    Rows are cells (load, composition, percent tasks, collective size), columns the
+    algorithms.  In the percent-of-optimum table a ``†`` marks a cell whose optimum was
+    not proven for some mission (the ILP hit its time limit).
+
+    >>> from cfopt.report import cell_table
+    >>> header, rows = cell_table([], "seconds")
+    >>> header[:4]
+    ['load', 'S:k', '% tasks', 'robots']
+    """
+    m = METRICS[metric] if isinstance(metric, str) else metric
+    algorithms = [a for a in _algorithms(trials) if not (m.heuristics_only and a == EXACT)]
+    cells: dict[tuple[float, int, int, float, int], dict[str, list[Trial]]] = defaultdict(
+        lambda: defaultdict(list)
+    )
+    for t in trials:
+        cells[_cell_key(t)][t.algorithm].append(t)
+    header = ["load", "S:k", "% tasks", "robots", *algorithms]
+    rows = []
+    for key in sorted(cells):
+        load, s, k, p, n = key
+        row = [f"{load:g}", f"{s}:{k}", f"{p:g}", str(n)]
+        for a in algorithms:
+            group = cells[key].get(a, [])
+            text = format_range(_values(group, m))
+            if m.name == "percent_optimum" and any(not t.optimum_proven for t in group):
+                text += " †"
+            row.append(text)
+        rows.append(row)
+    return header, rows
+
+
+# ---------------------------------------------------------------------- statistics
+@dataclass(frozen=True)
+class TestResult:
+    """One statistical test (frozen).
+
+    Attributes
+    ----------
+    test : str
+        ``"Kruskal-Wallis"``, ``"Mann-Whitney-Wilcoxon"`` or ``"Friedman"``.
+    subject : str
+        The algorithm whose results are compared across a factor, or ``"algorithms"``.
+    metric : str
+        A key of :data:`METRICS`.
+    factor : str
+        What the groups are: ``"robots"``, ``"percent_tasks"``, ``"service_types"``,
+        ``"services_per_robot"`` or ``"algorithm"``.
+    subset : str
+        Which trials (e.g. ``"load 1, percent tasks 10, 50"``).
+    groups : tuple of str
+        Group labels, in order.
+    n : int
+        Observations (Friedman: blocks, i.e. missions).
+    statistic, p_value : float or None
+        ``H``, ``U`` or chi-square; ``None`` when the test could not be run (``note``).
+    posthoc : tuple of (str, str, float)
+        Pairwise p-values: Mann-Whitney-Wilcoxon after Kruskal-Wallis, Conover after
+        Friedman (unadjusted, as in the seed).
+    note : str
+    """
+
+    __test__ = False  # not a pytest test class
+
+    test: str
+    subject: str
+    metric: str
+    factor: str
+    subset: str
+    groups: tuple[str, ...]
+    n: int
+    statistic: float | None
+    p_value: float | None
+    posthoc: tuple[tuple[str, str, float], ...] = field(default=())
+    note: str = ""
+
+    @property
+    def significant(self) -> bool:
+        """``p < 0.05``."""
+        return self.p_value is not None and self.p_value < ALPHA
+
+
+def _format_p(p: float | None) -> str:
+    if p is None or not math.isfinite(p):
+        return "-"
+    return "<0.001" if p < 0.001 else f"{p:.3f}"
+
+
+def _all_equal(groups: Sequence[Sequence[float]]) -> bool:
+    flat = [x for g in groups for x in g]
+    return len(set(flat)) <= 1
+
+
+def _kruskal(
+    subject: str, metric: str, factor: str, subset: str, labelled: dict[str, list[float]]
+) -> TestResult:
+    from scipy import stats
+
+    labels = list(labelled)
+    groups = [labelled[g] for g in labels]
+    n = sum(len(g) for g in groups)
+    if _all_equal(groups):
+        return TestResult(
+            "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, None, None,
+            note="no variation: every value is the same",
+        )  # fmt: skip
+    h, p = stats.kruskal(*groups)
+    posthoc = []
+    for i in range(len(labels)):
+        for j in range(i + 1, len(labels)):
+            _, pp = stats.mannwhitneyu(groups[i], groups[j], alternative="two-sided")
+            posthoc.append((labels[i], labels[j], float(pp)))
+    return TestResult(
+        "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, float(h), float(p),
+        tuple(posthoc),
+    )  # fmt: skip
+
+
+def _mannwhitney(
+    subject: str, metric: str, factor: str, subset: str, labelled: dict[str, list[float]]
+) -> TestResult:
+    from scipy import stats
+
+    labels = list(labelled)
+    a, b = (labelled[g] for g in labels)
+    if _all_equal([a, b]):
+        return TestResult(
+            "Mann-Whitney-Wilcoxon", subject, metric, factor, subset, tuple(labels),
+            len(a) + len(b), None, None, note="no variation: every value is the same",
+        )  # fmt: skip
+    u, p = stats.mannwhitneyu(a, b, alternative="two-sided")
+    return TestResult(
+        "Mann-Whitney-Wilcoxon", subject, metric, factor, subset, tuple(labels),
+        len(a) + len(b), float(u), float(p),
+    )  # fmt: skip
+
+
+def _friedman(
+    metric: Metric, subset: str, trials: Sequence[Trial], algorithms: Sequence[str]
+) -> TestResult | None:
+    from scipy import stats
+
+    blocks: dict[tuple[str, int], dict[str, float]] = defaultdict(dict)
+    for t in trials:
+        v = metric.value(t)
+        if t.algorithm in algorithms and v is not None and math.isfinite(v):
+            blocks[(t.cell, t.mission_seed)][t.algorithm] = float(v)
+    rows = [[b[a] for a in algorithms] for b in blocks.values() if len(b) == len(algorithms)]
+    if len(algorithms) < 3 or len(rows) < 2:
+        return None
+    matrix = np.asarray(rows)
+    base = ("Friedman", "algorithms", metric.name, "algorithm", subset, tuple(algorithms))
+    if _all_equal([matrix.ravel().tolist()]) or (matrix == matrix[:, :1]).all():
+        return TestResult(*base, len(rows), None, None, note="no variation: ties in every block")
+    import scikit_posthocs
+
+    chi2, p = stats.friedmanchisquare(*matrix.T)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        table = scikit_posthocs.posthoc_conover_friedman(matrix).to_numpy()
+    posthoc = [
+        (algorithms[i], algorithms[j], float(table[i, j]))
+        for i in range(len(algorithms))
+        for j in range(i + 1, len(algorithms))
+    ]
+    return TestResult(*base, len(rows), float(chi2), float(p), tuple(posthoc))
+
+
+_FACTORS = (
+    ("robots", "collective size", lambda t: t.robots),
+    ("percent_tasks", "percent tasks", lambda t: t.percent_tasks),
+    ("service_types", "service types", lambda t: t.service_types),
+    ("services_per_robot", "services per robot", lambda t: t.services_per_robot),
+)
+_TESTED_METRICS = ("percent_optimum", "seconds", "megabytes")
+
+
+def statistics(trials: Sequence[Trial]) -> list[TestResult]:
+    """The seed's tests on the trials, per load level.
+
+    For every heuristic and metric (percent of optimum, runtime, communication):
+    across collective sizes (only the percent-task levels every size has, as the seed
+    left out 1 % at 100 robots) and across percent tasks (only the sizes that have every
+    level) a Kruskal-Wallis test with pairwise Mann-Whitney-Wilcoxon post-hoc tests;
+    between the levels of service types and of services per robot a Mann-Whitney-Wilcoxon
+    test (Kruskal-Wallis when there are more than two levels).  Then, per composition and
+    over all, a Friedman test across the heuristics with the missions as blocks, and
+    Conover's post-hoc test (``scikit_posthocs.posthoc_conover_friedman``).  A factor
+    with one level, or fewer than three heuristics for Friedman, gives no test; groups
+    whose values are all equal give a result with ``statistic=None`` and a note.
+    """
+    results: list[TestResult] = []
+    heuristics = [a for a in _algorithms(trials) if a != EXACT]
+    for load in sorted({t.load for t in trials}):
+        at_load = [t for t in trials if t.load == load]
+        for algorithm in heuristics:
+            mine = [t for t in at_load if t.algorithm == algorithm]
+            for metric_name in _TESTED_METRICS:
+                metric = METRICS[metric_name]
+                for factor, _label, get in _FACTORS:
+                    subset, chosen = _factor_subset(mine, factor)
+                    subset = f"load {load:g}" + subset
+                    labelled: dict[str, list[float]] = defaultdict(list)
+                    for t in sorted(chosen, key=get):
+                        v = metric.value(t)
+                        if v is not None and math.isfinite(v):
+                            labelled[f"{get(t):g}"].append(float(v))
+                    if len(labelled) < 2:
+                        continue
+                    test = _mannwhitney if len(labelled) == 2 else _kruskal
+                    results.append(test(algorithm, metric_name, factor, subset, labelled))
+        for metric_name in _TESTED_METRICS:
+            metric = METRICS[metric_name]
+            compositions = sorted({(t.service_types, t.services_per_robot) for t in at_load})
+            for s, k in compositions:
+                sub = [t for t in at_load if (t.service_types, t.services_per_robot) == (s, k)]
+                r = _friedman(metric, f"load {load:g}, composition {s}:{k}", sub, heuristics)
+                if r is not None:
+                    results.append(r)
+            if len(compositions) > 1:
+                r = _friedman(metric, f"load {load:g}, all compositions", at_load, heuristics)
+                if r is not None:
+                    results.append(r)
+    return results
+
+
+def _factor_subset(trials: Sequence[Trial], factor: str) -> tuple[str, list[Trial]]:
+    """The seed's restriction: compare sizes on the percent levels every size has, and
+    percent levels on the sizes that have every level."""
+    if factor not in ("robots", "percent_tasks"):
+        return "", list(trials)
+    other = "percent_tasks" if factor == "robots" else "robots"
+    levels: dict[Any, set[Any]] = defaultdict(set)
+    for t in trials:
+        levels[getattr(t, other)].add(getattr(t, factor))
+    every = set().union(*levels.values()) if levels else set()
+    keep = sorted(o for o, seen in levels.items() if seen == every)
+    chosen = [t for t in trials if getattr(t, other) in keep]
+    if len(keep) == len(levels):
+        return "", chosen
+    name = "percent tasks" if other == "percent_tasks" else "robots"
+    return f", {name} {', '.join(f'{v:g}' for v in keep)}", chosen
+
+
+def _statistics_table(results: Sequence[TestResult]) -> tuple[list[str], list[list[str]]]:
+    header = ["test", "subject", "metric", "groups", "subset", "n", "statistic", "p", "post-hoc"]
+    rows = []
+    for r in results:
+        stat = "-" if r.statistic is None else f"{r.statistic:.4g}"
+        post = "; ".join(f"{a}/{b}: {_format_p(p)}" for a, b, p in r.posthoc)
+        rows.append(
+            [
+                r.test,
+                r.subject,
+                r.metric,
+                f"{r.factor}: {', '.join(r.groups)}",
+                r.subset,
+                str(r.n),
+                stat,
+                _format_p(r.p_value) + (" *" if r.significant else ""),
+                post or r.note,
+            ]
+        )
+    return header, rows
+
+
+# -------------------------------------------------------------------------- figures
+_COLOURS = {
+    EXACT: "#7f7f7f",
+    "grape-s": "#1f77b4",
+    "pair-grape-s": "#2ca02c",
+    "sda": "#ff7f0e",
+    "rachna-dt": "#d62728",
+}
+_EXTRA_COLOURS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def _colour(name: str, position: int) -> str:
+    return _COLOURS.get(name, _EXTRA_COLOURS[position % len(_EXTRA_COLOURS)])
+
+
+def _figure_name(metric: str, load: float) -> str:
+    return f"fig_{metric}_load{load:g}".replace(".", "_") + ".png"
+
+
+def _figure_names(trials: Sequence[Trial]) -> list[tuple[str, float, str]]:
+    out = []
+    for load in sorted({t.load for t in trials}):
+        for name in ("percent_optimum", "seconds", "megabytes"):
+            out.append((name, load, _figure_name(name, load)))
+    return out
+
+
+def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> list[Path]:
+    """Box plots like the seed's Figures 1-4, one PNG per metric and load.
+
+    Each figure has one panel per composition (``S:k``); in a panel the x axis groups
+    the cells by collective size and percent tasks, and every algorithm has its box in
+    each group.  Runtime and communication use a log scale.  Files are written to
+    ``directory`` (which must exist), replacing files of the same name; returns the paths.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    directory = Path(directory)
+    written = []
+    for metric_name, load, filename in _figure_names(trials):
+        metric = METRICS[metric_name]
+        at_load = [t for t in trials if t.load == load]
+        algorithms = [
+            a for a in _algorithms(at_load) if not (metric.heuristics_only and a == EXACT)
+        ]
+        comps = sorted({(t.service_types, t.services_per_robot) for t in at_load})
+        ncols = 2 if len(comps) > 1 else 1
+        nrows = math.ceil(len(comps) / ncols)
+        fig, axes = plt.subplots(
+            nrows,
+            ncols,
+            figsize=(6.4 * ncols, 3.4 * nrows + 1.0),
+            squeeze=False,
+            layout="constrained",
+        )
+        for ax in axes.ravel()[len(comps) :]:
+            ax.set_visible(False)
+        width = 0.8 / max(len(algorithms), 1)
+        for panel, ((s, k), ax) in enumerate(zip(comps, axes.ravel(), strict=False)):
+            mine = [t for t in at_load if (t.service_types, t.services_per_robot) == (s, k)]
+            xs = sorted({(t.percent_tasks, t.robots) for t in mine})
+            for a_pos, algorithm in enumerate(algorithms):
+                data, positions = [], []
+                for x_pos, (p, n) in enumerate(xs):
+                    vals = _values(
+                        (
+                            t
+                            for t in mine
+                            if t.algorithm == algorithm and (t.percent_tasks, t.robots) == (p, n)
+                        ),
+                        metric,
+                    )
+                    if metric.log_scale:
+                        vals = [max(v, 1e-6) for v in vals]
+                    if vals:
+                        data.append(vals)
+                        positions.append(x_pos + (a_pos - (len(algorithms) - 1) / 2) * width)
+                if not data:
+                    continue
+                colour = _colour(algorithm, a_pos)
+                ax.boxplot(
+                    data,
+                    positions=positions,
+                    widths=width * 0.85,
+                    patch_artist=True,
+                    manage_ticks=False,
+                    boxprops={"facecolor": colour, "alpha": 0.55, "edgecolor": colour},
+                    medianprops={"color": colour, "linewidth": 2.2},
+                    whiskerprops={"color": colour},
+                    capprops={"color": colour},
+                    flierprops={"marker": ".", "markersize": 4, "markeredgecolor": colour},
+                )
+            ax.set_xticks(range(len(xs)))
+            ax.set_xticklabels([f"n={n}\n{p:g}% tasks" for p, n in xs], fontsize=8)
+            ax.set_xlim(-0.6, len(xs) - 0.4)
+            if metric.log_scale:
+                ax.set_yscale("log")
+            ax.set_ylabel(f"{metric.label} ({metric.unit})", fontsize=9)
+            ax.set_title(
+                f"({chr(ord('a') + panel)}) {s} service types, {k} "
+                f"service{'s' if k != 1 else ''} per robot",
+                fontsize=10,
+            )
+            ax.grid(axis="y", alpha=0.3)
+            ax.tick_params(axis="y", labelsize=8)
+            for x_pos in range(1, len(xs)):
+                ax.axvline(x_pos - 0.5, color="#dddddd", linewidth=0.8)
+        handles = [
+            plt.Rectangle(
+                (0, 0), 1, 1, facecolor=_colour(a, i), alpha=0.55, edgecolor=_colour(a, i)
+            )
+            for i, a in enumerate(algorithms)
+        ]
+        fig.legend(
+            handles, algorithms, loc="outside lower center", ncol=len(algorithms), frameon=False
+        )
+        fig.suptitle(
+            f"{metric.label} by collective size and percent tasks, {_load_label(load)}",
+            fontsize=11,
+        )
+        path = directory / filename
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+# ------------------------------------------------------------------ the report itself
+@dataclass(frozen=True)
+class Report:
+    """What :func:`write_report` wrote (frozen)."""
+
+    directory: Path
+    files: tuple[Path, ...]
+    summary: str
+    gap_report: dict[str, Any]
+
+    @property
+    def markdown(self) -> Path:
+        """The Markdown report."""
+        return self.directory / "report.md"
+
+    @property
+    def html(self) -> Path:
+        """The self-contained HTML page."""
+        return self.directory / "report.html"
+
+
+def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """A plain-text table with aligned columns (what the CLI prints).
+
+    >>> print(format_table(["a", "bb"], [["1", "2"]]))
+    a  bb
+    -  --
+    1  2
+    """
+    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(header, widths, strict=True)).rstrip()]
+    lines.append("  ".join("-" * w for w in widths))
+    for r in rows:
+        lines.append("  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip())
+    return "\n".join(lines)
+
+
+def summary_text(trials: Sequence[Trial]) -> str:
+    """The summary table as plain text (``cfopt audit`` and ``cfopt report`` print it)."""
+    text = format_table(*_summary_table(trials))
+    if any(not t.optimum_proven for t in trials):
+        text += (
+            "\n† some optima were not proven (ILP time limit): percentages are of the best found"
+        )
+    return text
+
+
+def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    def esc(s: str) -> str:
+        return str(s).replace("|", "\\|")
+
+    lines = ["| " + " | ".join(esc(h) for h in header) + " |"]
+    lines.append("|" + "|".join("---" for _ in header) + "|")
+    lines += ["| " + " | ".join(esc(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _html_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows
+    )
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]], mode: str) -> None:
+    with path.open(mode, encoding="utf-8", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def _claims_table(claims: Sequence[Any]) -> tuple[list[str], list[list[str]]]:
+    header = ["id", "verdict", "missions", "counterexample", "seconds", "statement", "note"]
+    rows = []
+    for v in claims:
+        ce = v.counterexample
+        rows.append(
+            [
+                v.claim_id,
+                v.verdict.value,
+                str(v.instances_checked),
+                "-" if ce is None else "{} robots, {} tasks, {} services".format(*ce.size),
+                f"{v.seconds:.1f}",
+                " ".join(v.statement.split()),
+                " ".join(str(v.note).split()),
+            ]
+        )
+    return header, rows
+
+
+def gap_report(trials: Sequence[Trial], version: str = "") -> dict[str, Any]:
+    """The ``gap_report`` object of ``cfopt audit --json`` (interface.md §3).
+
+    Keys: ``code_version``, ``trials``, ``missions``, ``algorithms``, ``unproven_optima``,
+    ``summary`` (:func:`summary_rows`), ``cells`` (per cell and algorithm: trials and
+    ``{"median", "min", "max"}`` of every metric), ``statistics`` (every
+    :class:`TestResult` as a dict).
+    """
+    cells: dict[tuple[Any, ...], list[Trial]] = defaultdict(list)
+    for t in trials:
+        cells[(*_cell_key(t), t.algorithm)].append(t)
+    order = {a: i for i, a in enumerate(_algorithms(trials))}
+    cell_rows = []
+    for key in sorted(cells, key=lambda k: (*k[:5], order[k[5]])):
+        group = cells[key]
+        first = group[0]
+        row: dict[str, Any] = {
+            "cell": first.cell,
+            "robots": first.robots,
+            "percent_tasks": first.percent_tasks,
+            "composition": first.composition,
+            "load": first.load,
+            "algorithm": first.algorithm,
+            "trials": len(group),
+            "unproven_optima": sum(not t.optimum_proven for t in group),
+        }
+        for metric in METRICS.values():
+            vals = _values(group, metric)
+            row[metric.name] = (
+                {"median": float(np.median(vals)), "min": min(vals), "max": max(vals)}
+                if vals
+                else None
+            )
+        cell_rows.append(row)
+    stats_rows = []
+    for r in statistics(trials):
+        d = {k: getattr(r, k) for k in r.__dataclass_fields__}
+        d["groups"] = list(r.groups)
+        d["posthoc"] = [{"a": a, "b": b, "p": p} for a, b, p in r.posthoc]
+        stats_rows.append(d)
+    return {
+        "code_version": version,
+        "trials": len(trials),
+        "missions": len({(t.cell, t.mission_seed) for t in trials}),
+        "algorithms": _algorithms(trials),
+        "unproven_optima": len({(t.cell, t.mission_seed) for t in trials if not t.optimum_proven}),
+        "summary": summary_rows(trials),
+        "cells": cell_rows,
+        "statistics": stats_rows,
+    }
+
+
+_REPORT_FILES = (
+    "report.md",
+    "report.html",
+    "trials.csv",
+    "summary.csv",
+    "statistics.csv",
+    *(f"table_{m}.csv" for m in METRICS),
+)
+
+
+def planned_files(trials: Sequence[Trial], claims: Sequence[Any] | None = None) -> list[str]:
+    """Names :func:`write_report` writes into its directory for these trials."""
+    names = list(_REPORT_FILES) + [f for _, _, f in _figure_names(trials)]
+    if claims is not None:
+        names.append("claims.csv")
+    return names
+
+
+def check_free(directory: str | os.PathLike[str], names: Iterable[str]) -> None:
+    """Raise :class:`cfopt.MissionError` if any of ``names`` exists in ``directory``."""
+    directory = Path(directory)
+    if directory.exists() and not directory.is_dir():
+        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
+    taken = [n for n in names if (directory / n).exists()]
+    if taken:
+        shown = ", ".join(taken[:3]) + (f" and {len(taken) - 3} more" if len(taken) > 3 else "")
+        raise MissionError(
+            f"{os.fspath(directory)}: already holds a report ({shown}); "
+            "pass --force (force=True) to replace those files, or choose another directory"
+        )
+
+
+def write_report(
+    trials: Sequence[Trial],
+    directory: str | os.PathLike[str],
+    *,
+    version: str = "",
+    claims: Sequence[Any] | None = None,
+    claim_files: Sequence[Path] = (),
+    source: str = "",
+    force: bool = False,
+    title: str = "cfopt optimal-gap report",
+) -> Report:
+    """Write the report: ``report.md``, ``report.html``, CSV tables and PNG box plots.
+
+    Parameters
+    ----------
+    trials : sequence of Trial
+        Typically ``load_trials(store)[0]``.
+    directory : path
+        Created when missing.  If it already holds any file this report would write,
+        nothing is written and :class:`cfopt.MissionError` is raised, unless ``force``
+        (then exactly those files are replaced; other files are left alone).
+    version : str
+        The trials' code version (shown in the report).
+    claims : sequence of proofs.claims.Verdict, optional
+        Adds the claims verdict table (and ``claims.csv``).
+    claim_files : sequence of Path
+        Counterexample files already written (listed in the report).
+    source : str
+        Where the trials came from (the store's path), shown in the report.
+    force : bool, default False
+    title : str
+
+    Returns
+    -------
+    Report
+        ``summary`` is the plain-text summary table; ``gap_report`` the JSON-ready data.
+    """
+    if not trials:
+        raise MissionError("no trials to report")
+    directory = Path(directory)
+    names = planned_files(trials, claims)
+    if not force:
+        check_free(directory, names)
+    elif directory.exists() and not directory.is_dir():
+        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
+    directory.mkdir(parents=True, exist_ok=True)
+    mode = "w" if force else "x"
+    written: list[Path] = []
+
+    # CSV files.
+    fields = list(trials[0].to_dict())
+    _write_csv(
+        directory / "trials.csv", fields, ([t.to_dict()[f] for f in fields] for t in trials), mode
+    )
+    summary_header, summary_body = _summary_table(trials)
+    _write_csv(directory / "summary.csv", summary_header, summary_body, mode)
+    results = statistics(trials)
+    stats_header, stats_body = _statistics_table(results)
+    _write_csv(directory / "statistics.csv", stats_header, stats_body, mode)
+    tables = {name: cell_table(trials, name) for name in METRICS}
+    for name, (header, rows) in tables.items():
+        _write_csv(directory / f"table_{name}.csv", header, rows, mode)
+    written += [directory / n for n in ("trials.csv", "summary.csv", "statistics.csv")]
+    written += [directory / f"table_{n}.csv" for n in METRICS]
+    if claims is not None:
+        _write_csv(directory / "claims.csv", *_claims_table(claims), mode)
+        written.append(directory / "claims.csv")
+    figures = box_plots(trials, directory)
+    written += figures
+
+    # The document, as blocks rendered twice (Markdown and HTML).
+    missions = len({(t.cell, t.mission_seed) for t in trials})
+    unproven = len({(t.cell, t.mission_seed) for t in trials if not t.optimum_proven})
+    blocks: list[tuple[str, Any]] = [("h1", title)]
+    facts = [
+        f"{len(trials)} trials on {missions} missions in {len({t.cell for t in trials})} grid "
+        f"cells; algorithms: {', '.join(_algorithms(trials))}.",
+        f"Code version {version or '(unknown)'}"
+        + (f"; trials from `{source}`." if source else "."),
+        f"Generated {time.strftime('%Y-%m-%d %H:%M:%S %Z')}.",
+        "Every mission is solved exactly (`exact`, HiGHS); each heuristic is scored against "
+        "that optimum. "
+        + (
+            f"{unproven} optima were not proven (ILP time limit), marked †: their percentages "
+            "are of the best assignment found."
+            if unproven
+            else "Every optimum was proven."
+        ),
+    ]
+    blocks.append(("p", " ".join(facts)))
+    blocks += [("h2", "Summary"), ("table", _summary_table(trials))]
+    blocks.append(
+        (
+            "p",
+            "Optimal: trials that reached the optimum. Stability: Nash and (strict) pairwise "
+            "stability of the final partition by the independent checkers of `proofs`; "
+            "an exact optimum need not be stable. MB: total communication under each "
+            "algorithm's documented message model.",
+        )
+    )
+    if claims is not None:
+        blocks += [("h2", "Claims of the seed paper"), ("table", _claims_table(claims))]
+        if claim_files:
+            listed = ", ".join(f"`{p.name}`" for p in claim_files)
+            blocks.append(
+                (
+                    "p",
+                    "Counterexamples (replay with `cfopt check MISSION ASSIGNMENT` and "
+                    f"`cfopt run ALGORITHM MISSION`): {listed} in "
+                    f"`{claim_files[0].parent.as_posix()}`.",
+                )
+            )
+    figure_of = {(m, load): directory / f for m, load, f in _figure_names(trials)}
+    for name, metric in METRICS.items():
+        blocks += [("h2", f"{metric.label} ({metric.unit}): median (min, max)")]
+        blocks.append(("table", tables[name]))
+        for (m, load), path in figure_of.items():
+            if m == name:
+                blocks.append(("img", (path, f"{metric.label}, {_load_label(load)}")))
+    blocks += [
+        ("h2", "Statistics"),
+        (
+            "p",
+            "As in the seed: Kruskal-Wallis (H) with pairwise Mann-Whitney-Wilcoxon post-hoc "
+            "tests across collective sizes and percent tasks, Mann-Whitney-Wilcoxon (U) "
+            "between service-type and services-per-robot levels, each per heuristic; Friedman "
+            "(chi-square) across the heuristics with missions as blocks and Conover's post-hoc "
+            "test. scipy.stats and scikit-posthocs; p-values unadjusted; * marks p < 0.05.",
+        ),
+        ("table", (stats_header, stats_body)),
+    ]
+    markdown, page = _render(blocks, directory, title)
+    for name, text in (("report.md", markdown), ("report.html", page)):
+        with (directory / name).open(mode, encoding="utf-8") as handle:
+            handle.write(text)
+        written.append(directory / name)
+    return Report(
+        directory=directory,
+        files=tuple(written),
+        summary=summary_text(trials),
+        gap_report=gap_report(trials, version),
+    )
+
+
+_CSS = (
+    "body{font-family:system-ui,sans-serif;margin:2em auto;max-width:90em;padding:0 1em;"
+    "color:#222}table{border-collapse:collapse;margin:1em 0;font-size:.85em}"
+    "th,td{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}"
+    "th{background:#f3f3f3}img{max-width:100%;border:1px solid #eee}code{background:#f6f6f6}"
+)
+
+
+def _render(blocks: Sequence[tuple[str, Any]], directory: Path, title: str) -> tuple[str, str]:
+    md: list[str] = []
+    page: list[str] = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
+    ]
+    for kind, content in blocks:
+        if kind in ("h1", "h2"):
+            level = "#" if kind == "h1" else "##"
+            md.append(f"{level} {content}\n")
+            page.append(f"<{kind}>{html.escape(content)}</{kind}>")
+        elif kind == "p":
+            md.append(f"{content}\n")
+            page.append(f"<p>{_inline_code(html.escape(content))}</p>")
+        elif kind == "table":
+            md.append(_md_table(*content) + "\n")
+            page.append(_html_table(*content))
+        elif kind == "img":
+            path, caption = content
+            md.append(f"![{caption}]({path.relative_to(directory).as_posix()})\n")
+            data = base64.b64encode(path.read_bytes()).decode("ascii")
+            page.append(
+                f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+                f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+            )
+    page.append("</body></html>")
+    return "\n".join(md), "\n".join(page) + "\n"
+
+
+def _inline_code(text: str) -> str:
+    parts = text.split("`")
+    return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
+
+
+def report_from_store(
+    store: str | os.PathLike[str],
+    directory: str | os.PathLike[str],
+    *,
+    version: str | None = None,
+    force: bool = False,
+    claims: Sequence[Any] | None = None,
+    claim_files: Sequence[Path] = (),
+) -> Report:
+    """:func:`load_trials` then :func:`write_report` (what ``cfopt report`` does)."""
+    trials, version = load_trials(store, version)
+    return write_report(
+        trials,
+        directory,
+        version=version,
+        claims=claims,
+        claim_files=claim_files,
+        source=os.fspath(store),
+        force=force,
+    )
+
+
+# ----------------------------------------------------------------------- the audit
+#: Claims budget (missions per claim) of ``cfopt audit`` and of ``cfopt audit --quick``.
+AUDIT_BUDGET, QUICK_BUDGET = 25, 5
+#: Missions per cell of ``cfopt audit`` and of ``cfopt audit --quick``.
+AUDIT_MISSIONS, QUICK_MISSIONS = 4, 2
+#: Where the audit keeps its trials inside its directory (an interrupted audit resumes).
+AUDIT_STORE = "trials.sqlite"
+#: The audit's counterexample folder inside its directory.
+COUNTEREXAMPLES = "counterexamples"
+
+
+@dataclass(frozen=True)
+class AuditResult:
+    """What :func:`run_audit` found and wrote (frozen).
+
+    ``verdicts`` are :class:`proofs.claims.Verdict` in claim order; ``report`` is
+    ``None`` for a claims-only audit; ``outcome`` the sweep's
+    :class:`~cfopt.experiments.SweepOutcome` (``None`` for claims only);
+    ``claim_files`` the counterexample files written; ``failures`` the claims whose
+    check raised, as ``(claim id, traceback)``.
+    """
+
+    directory: Path
+    verdicts: tuple[Any, ...]
+    report: Report | None
+    outcome: Any
+    claim_files: tuple[Path, ...]
+    failures: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        """No trial and no claim check raised."""
+        return not self.failures and (self.outcome is None or not self.outcome.failures)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``cfopt audit --json`` object: ``claims`` and ``gap_report``."""
+        gap = None
+        if self.report is not None:
+            gap = dict(self.report.gap_report)
+            gap["report_directory"] = os.fspath(self.directory)
+            gap["files"] = [os.fspath(p) for p in self.report.files]
+            gap["store"] = os.fspath(self.directory / AUDIT_STORE)
+        return {
+            "claims": [v.to_dict() for v in self.verdicts],
+            "gap_report": gap,
+            "counterexample_files": [os.fspath(p) for p in self.claim_files],
+        }
+
+
+def check_claim(claim_id: str, budget: int, seed: int = 0) -> Any:
+    """One claim's verdict (``proofs.claims.audit_claims(ids=[claim_id])[0]``).
+
+    Runs in an executor's worker and returns a picklable wrapper (its counterexample as
+    JSON objects, since a :class:`cfopt.Mission` with metadata does not pickle) that
+    :func:`run_audit` turns back into the verdict.  Without hypothesis (the ``test``
+    extra), which the claims' counterexample search needs, the verdict is
+    ``inconclusive`` and says so.
+    """
+    from proofs import claims
+
+    try:
+        verdict = claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0]
+    except ModuleNotFoundError as exc:
+        if exc.name != "hypothesis":
+            raise
+        claim = claims.CLAIMS[claim_id]
+        return claims.Verdict(
+            claim_id=claim_id,
+            statement=claim.statement,
+            verdict=claims.VerdictKind.INCONCLUSIVE,
+            instances_checked=0,
+            counterexample=None,
+            seconds=0.0,
+            note="not checked: needs hypothesis (pip install 'cfopt[test]')",
+        )
+    return _Portable(verdict)
+
+
+class _Portable:
+    """A verdict that crosses process boundaries: its counterexample travels as the
+    mission and assignment JSON objects (a :class:`cfopt.Mission` with metadata does not
+    pickle) and is rebuilt by :meth:`restore`."""
+
+    def __init__(self, verdict: Any) -> None:
+        from dataclasses import replace
+
+        ce = verdict.counterexample
+        self.verdict = replace(verdict, counterexample=None)
+        self.counterexample = None if ce is None else ce.to_dict()
+
+    def restore(self) -> Any:
+        if self.counterexample is None:
+            return self.verdict
+        from dataclasses import replace
+
+        from cfopt.assignment import Assignment
+        from cfopt.mission import Mission
+        from proofs.claims import Counterexample
+
+        d = self.counterexample
+        mission = Mission.from_dict(d["mission"])
+        ce = Counterexample(
+            mission=mission,
+            assignment=Assignment.from_dict(mission, d["assignment"]),
+            algorithm=d["algorithm"],
+            detail=d["detail"],
+        )
+        return replace(self.verdict, counterexample=ce)
+
+
+def _claim_ids() -> list[str]:
+    from proofs import claims
+
+    return list(claims.CLAIMS)
+
+
+def _audit_files(cells: Sequence[Any], with_claims: bool) -> list[str]:
+    names = list(_REPORT_FILES)
+    for load in sorted({c.load for c in cells}):
+        names += [_figure_name(m, load) for m in ("percent_optimum", "seconds", "megabytes")]
+    if with_claims:
+        names.append("claims.csv")
+    return names
+
+
+def run_audit(
+    directory: str | os.PathLike[str] = "cfopt-audit",
+    *,
+    quick: bool = False,
+    claims_only: bool = False,
+    workers: int | None = None,
+    executor: Any = None,
+    force: bool = False,
+    progress: bool = True,
+    cells: Sequence[Any] | None = None,
+    missions: int | None = None,
+    budget: int | None = None,
+    seed: int = 0,
+) -> AuditResult:
+    """The main job: the seed's claims checked and the optimal-gap report, in ``directory``.
+
+    Parameters
+    ----------
+    directory : path, default "cfopt-audit"
+        Receives ``report.md``, ``report.html``, the CSV tables, the box plots,
+        ``claims.csv``, ``counterexamples/`` and the trials (``trials.sqlite``).  If any
+        of those report files or counterexamples exist already, nothing is computed and
+        :class:`cfopt.MissionError` is raised, unless ``force``.  The store is reused:
+        an interrupted audit resumes with the trials it had finished.
+    quick : bool
+        The quick grid (:func:`cfopt.experiments.quick_grid`, 2 missions per cell) and
+        claims budget 5, instead of the audit grid (:func:`cfopt.experiments.audit_grid`,
+        4 missions per cell) and budget 25.
+    claims_only : bool
+        Only the claims: verdicts and counterexamples, no sweep and no report.
+    workers, executor
+        As in :func:`cfopt.experiments.run_sweep`; claims are checked on the same
+        executor, alongside the trials.
+    cells, missions, budget, seed
+        Override the grid, missions per cell, claims budget and claims seed.
+
+    Returns
+    -------
+    AuditResult
+    """
+    from cfopt.experiments import Sweep, audit_grid, make_executor, quick_grid, run_sweep
+
+    directory = Path(directory)
+    cells = tuple(cells) if cells is not None else (quick_grid() if quick else audit_grid())
+    missions = missions or (QUICK_MISSIONS if quick else AUDIT_MISSIONS)
+    budget = budget or (QUICK_BUDGET if quick else AUDIT_BUDGET)
+    cx_dir = directory / COUNTEREXAMPLES
+    if not force:
+        check_free(directory, [] if claims_only else _audit_files(cells, True))
+        if cx_dir.is_dir() and any(cx_dir.iterdir()):
+            raise MissionError(
+                f"{os.fspath(cx_dir)}: already holds counterexamples; pass --force "
+                "(force=True) to replace them, or choose another directory"
+            )
+    elif directory.exists() and not directory.is_dir():
+        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
+    sweep = None if claims_only else Sweep(cells=cells, missions=missions)
+    ids = _claim_ids()
+    verdicts: dict[int, Any] = {}
+    failures: list[tuple[str, str]] = []
+
+    def collect(number: int, future: Any) -> None:
+        exc = future.exception()
+        if exc is None:
+            result = future.result()
+            verdicts[number] = result.restore() if isinstance(result, _Portable) else result
+        else:
+            import traceback
+
+            failures.append(
+                (
+                    ids[number],
+                    "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)),
+                )
+            )
+
+    jobs = [(check_claim, (cid, budget, seed), {}) for cid in ids]
+    own = executor is None
+    pool = make_executor(workers) if own else executor
+    outcome = None
+    try:
+        if sweep is None:
+            futures = [pool.submit(fn, *args, **kwargs) for fn, args, kwargs in jobs]
+            for number, future in enumerate(futures):
+                future.exception()  # waits
+                collect(number, future)
+        else:
+            directory.mkdir(parents=True, exist_ok=True)
+            outcome = run_sweep(
+                sweep,
+                directory / AUDIT_STORE,
+                executor=pool,
+                progress=progress,
+                extra_jobs=jobs,
+                on_extra=collect,
+            )
+    finally:
+        if own:
+            pool.shutdown(wait=True, cancel_futures=True)
+    ordered = tuple(verdicts[i] for i in sorted(verdicts))
+    from proofs.claims import write_counterexamples
+
+    claim_files = tuple(write_counterexamples(ordered, cx_dir, overwrite=force))
+    report = None
+    if outcome is not None:
+        trials, version = load_trials(directory / AUDIT_STORE, outcome.code_version)
+        wanted = {(c.label, c.mission_seed(i)) for c in sweep.cells for i in range(missions)}
+        trials = [t for t in trials if (t.cell, t.mission_seed) in wanted]
+        report = write_report(
+            trials,
+            directory,
+            version=version,
+            claims=ordered,
+            claim_files=claim_files,
+            source=os.fspath(directory / AUDIT_STORE),
+            force=force,
+            title="cfopt audit: the seed's claims and the optimal-gap report",
+        )
+    return AuditResult(directory, ordered, report, outcome, claim_files, tuple(failures))
