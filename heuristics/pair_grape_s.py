@@ -64,6 +64,13 @@ def pair_grape_s(
     no exchange is possible, e.g. when no unassigned robot shares a service with any
     assigned robot that could fill a short slot: hence the quiet-pass rule.
 
+    The exchange is one hop: ``a_o`` replaces a robot that can itself fill a short slot.
+    When the only robot that can fill a short slot sits where ``a_o`` cannot stand in, a
+    longer chain would be needed and the step stops short.  ``cfopt audit`` (claim P1)
+    finds such achievable missions of the seed's family with as few as 4 robots and one
+    task, where Pair-GRAPE-S earns nothing: so the seed's "optimal solutions for all
+    problems" does not hold in general.
+
     ``work`` is GRAPE-S's slot examinations plus, in the pairwise step, one unit per
     assigned robot examined as a partner and one per short slot ``a_i`` evaluates.
     Phase 2 costs O(n S) numpy work per unassigned robot per pass.
