@@ -82,7 +82,7 @@ EXACT = "exact"
 DEFAULT_TIME_LIMIT = 60.0
 _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))
 _PERCENTS = (1.0, 10.0, 50.0)
-_SCHEMA_VERSION = "1"
+_SCHEMA_VERSION = "2"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -372,7 +372,11 @@ class Trial:
     seconds : float
         Wall-clock time of the algorithm call (the solve for ``exact``).
     nash_stable, nash_stable_capped, pairwise_stable, pairwise_stable_capped : bool
-        :mod:`proofs` verdicts on the assignment (pairwise: ``mode="strict"``).
+        :mod:`proofs` verdicts on the assignment (pairwise: ``mode="strict"``, which under
+        the paper's reward coincides with Nash stability).
+    pareto_stable : bool
+        Pairwise stability with ``mode="pareto"`` (one deviator strictly better, neither
+        worse): the informative pairwise notion.
     pairwise_step_ran : bool or None
         Pair-GRAPE-S only: whether its pairwise step was needed.
     algorithm_seed : int or None
@@ -410,6 +414,7 @@ class Trial:
     nash_stable_capped: bool
     pairwise_stable: bool
     pairwise_stable_capped: bool
+    pareto_stable: bool
     pairwise_step_ran: bool | None
     algorithm_seed: int | None
     finished: float
@@ -439,6 +444,7 @@ _BOOL_FIELDS = {
     "nash_stable_capped",
     "pairwise_stable",
     "pairwise_stable_capped",
+    "pareto_stable",
     "pairwise_step_ran",
 }
 _INT_FIELDS = {
@@ -551,6 +557,7 @@ def run_trial(
         nash_stable_capped=proofs.is_nash_stable(mission, assignment, capped=True),
         pairwise_stable=proofs.is_pairwise_stable(mission, assignment),
         pairwise_stable_capped=proofs.is_pairwise_stable(mission, assignment, capped=True),
+        pareto_stable=proofs.is_pairwise_stable(mission, assignment, mode="pareto"),
         finished=time.time(),
         **counts,
     )

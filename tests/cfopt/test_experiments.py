@@ -82,6 +82,8 @@ def test_tiny_sweep_rows(tiny_store: tuple[Path, Sweep]) -> None:
             )
             assert t.algorithm_seed == t.mission_seed
         assert isinstance(t.nash_stable, bool) and isinstance(t.pairwise_stable, bool)
+        assert isinstance(t.pareto_stable, bool)
+        assert t.pairwise_stable == t.nash_stable  # strict pairwise = Nash (proofs.stability)
 
 
 def test_rerun_skips_everything(tiny_store: tuple[Path, Sweep]) -> None:

@@ -51,7 +51,8 @@ def _trial(**values) -> Trial:
         optimum_bound=100.0, optimum_status="optimal", percent_optimum=100.0,
         percent_total=100.0, iterations=1, rounds=2, messages=10, bytes=1000, work=5,
         seconds=0.1, nash_stable=True, nash_stable_capped=True, pairwise_stable=True,
-        pairwise_stable_capped=True, pairwise_step_ran=None, algorithm_seed=0, finished=0.0,
+        pairwise_stable_capped=True, pareto_stable=True, pairwise_step_ran=None,
+        algorithm_seed=0, finished=0.0,
     )  # fmt: skip
     base.update(values)
     if "cell" not in values:
