@@ -81,6 +81,17 @@ def write_output(text: str, target: str, force: bool) -> None:
         write_text(text, target, overwrite=force)
 
 
+def _add_workers_option(sub: argparse.ArgumentParser) -> None:
+    """``--workers N``, shared by the commands that run trials in parallel."""
+    sub.add_argument(
+        "--workers",
+        type=_whole_number(1),
+        default=None,
+        metavar="N",
+        help="worker processes (default: the usable CPUs; 1 = this process)",
+    )
+
+
 # ----------------------------------------------------------------------- commands
 def _add_generate(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
@@ -189,13 +200,7 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         "interrupted audit resume",
     )
     sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
-    sub.add_argument(
-        "--workers",
-        type=_whole_number(1),
-        default=None,
-        metavar="N",
-        help="worker processes (default: the usable CPUs; 1 = this process)",
-    )
+    _add_workers_option(sub)
 
     def run(args: argparse.Namespace) -> int:
         from cfopt.report import run_audit
@@ -472,13 +477,7 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         metavar="SEC",
         help="seconds per exact solve; an optimum not proven by then is marked (default 60)",
     )
-    sub.add_argument(
-        "--workers",
-        type=_whole_number(1),
-        default=None,
-        metavar="N",
-        help="worker processes (default: the usable CPUs; 1 = this process)",
-    )
+    _add_workers_option(sub)
     sub.add_argument(
         "--store",
         default="cfopt-sweep.sqlite",
