@@ -2,23 +2,34 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import math
 import os
+import stat
 import sys
-from collections.abc import Iterable
+import tempfile
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import IO, Any
 
-from cfopt.errors import MissionError, describe, key_path
+from cfopt._limits import format_bytes, require_memory
+from cfopt.errors import MissionError, describe, is_unicode, key_path
 
 __all__ = [
+    "MAX_DEPTH",
+    "MAX_DIGITS",
     "DuplicateKeysObject",
     "Source",
+    "check_folder",
+    "check_free_json",
     "check_keys",
+    "check_text",
     "expect_list",
     "expect_object",
     "layout_json",
     "read_json",
+    "read_text_file",
     "source_name",
     "write_text",
 ]
@@ -52,25 +63,98 @@ def source_name(source: Source) -> str:
     return str(getattr(source, "name", "<stream>"))
 
 
-def _read_text(source: Source, name: str) -> str:
-    if not isinstance(source, str | os.PathLike):
-        try:
-            return source.read()
-        except UnicodeDecodeError as exc:
-            raise MissionError(f"{name}: not UTF-8 text ({exc.reason})") from None
-    path = Path(source)
+#: Memory a parsed JSON document takes, per byte of its text (Python objects, a
+#: conservative figure for the formats' lists of small objects).
+_PARSE_MEMORY_PER_BYTE = 12
+#: Longest run of digits a JSON integer may have (CPython's int-to-string limit).
+MAX_DIGITS = 4300
+_FILE_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISDIR, "a directory"),
+)
+
+
+def _file_kind(mode: int) -> str:
+    for test, kind in _FILE_KINDS:
+        if test(mode):
+            return kind
+    return "not a regular file"
+
+
+def read_text_file(path: str | os.PathLike[str]) -> str:
+    """The UTF-8 text of a regular file (a FIFO or a device is refused, unread)."""
+    return _read_path(path, os.fspath(path))
+
+
+def _read_path(path: str | os.PathLike[str], name: str) -> str:
+    """Read a regular file; anything else (a FIFO would block forever) is refused unread."""
     try:
-        return path.read_text(encoding="utf-8")
+        # O_NONBLOCK: opening a FIFO that has no writer must not hang before the check
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:
         raise MissionError(f"{name}: no such file") from None
     except IsADirectoryError:
         raise MissionError(f"{name}: is a directory, not a JSON file") from None
     except PermissionError:
         raise MissionError(f"{name}: permission denied") from None
+    except OSError as exc:
+        raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        if stat.S_ISDIR(info.st_mode):
+            raise MissionError(f"{name}: is a directory, not a JSON file")
+        raise MissionError(
+            f"{name}: is {_file_kind(info.st_mode)}, not a regular file; "
+            "give a file, or '-' to read stdin"
+        )
+    with os.fdopen(fd, "rb") as handle:
+        require_memory(
+            info.st_size * _PARSE_MEMORY_PER_BYTE,
+            f"{name}: {format_bytes(info.st_size)} of JSON",
+        )
+        try:
+            data = handle.read()
+        except OSError as exc:
+            raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    return _decode(data, name)
+
+
+def _decode(data: bytes, name: str) -> str:
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise MissionError(f"{name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+def _read_text(source: Source, name: str) -> str:
+    if isinstance(source, str | os.PathLike):
+        return _read_path(source, name)
+    try:
+        return source.read()
     except UnicodeDecodeError as exc:
         raise MissionError(f"{name}: not UTF-8 text ({exc.reason})") from None
     except OSError as exc:
         raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
+
+
+class _LongNumber(Exception):
+    def __init__(self, text: str) -> None:
+        self.text = text
+
+
+def _parse_int(text: str) -> int:
+    if len(text) - text.startswith("-") > MAX_DIGITS:
+        raise _LongNumber(text)
+    return int(text)
+
+
+def _line_column(text: str, position: int) -> tuple[int, int]:
+    line = text.count("\n", 0, position) + 1
+    return line, position - (text.rfind("\n", 0, position) + 1) + 1
 
 
 def read_json(source: Source) -> tuple[Any, str]:
@@ -78,40 +162,206 @@ def read_json(source: Source) -> tuple[Any, str]:
 
     Objects that repeat a key come back as :class:`DuplicateKeysObject` so that the
     validator can name the place.  ``NaN`` and ``Infinity`` literals are parsed (the
-    validator then says where they are not allowed).
+    validator then says where they are not allowed).  Paths must name regular files (a
+    FIFO or a device is refused before reading, so nothing blocks), files too large to
+    parse in this machine's memory are refused with the memory they would need, and
+    integers of more than 4300 digits are refused with their line and column.
     """
     name = source_name(source)
     text = _read_text(source, name)
     if not text.strip():
         raise MissionError(f"{name}: empty file, expected a JSON object")
     try:
-        value = json.loads(text, object_pairs_hook=_object_pairs)
+        value = json.loads(text, object_pairs_hook=_object_pairs, parse_int=_parse_int)
     except json.JSONDecodeError as exc:
         raise MissionError(
             f"{name}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})"
         ) from None
     except RecursionError:
         raise MissionError(f"{name}: not valid JSON: nested too deeply") from None
+    except _LongNumber as exc:
+        line, column = _line_column(text, max(text.find(exc.text), 0))
+        digits = len(exc.text) - exc.text.startswith("-")
+        raise MissionError(
+            f"{name}: line {line}, column {column}: a number of {digits} digits is out of "
+            f"the range cfopt reads (at most {MAX_DIGITS} digits)"
+        ) from None
     return value, name
 
 
-def write_text(text: str, path: str | os.PathLike[str], *, overwrite: bool) -> None:
-    """Write UTF-8 text to ``path``; an existing file is replaced only when asked."""
+def check_folder(path: str | os.PathLike[str]) -> Path:
+    """The rule for every output: the folder an output goes into must exist already.
+
+    cfopt creates the file or the report directory it is asked to write, never a
+    missing folder above it (a typo in a path should not scatter folders).
+    """
     target = Path(path)
+    parent = target.parent
+    if not parent.is_dir():
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise MissionError(f"{os.fspath(path)}: the folder {os.fspath(parent)!r} {what}")
+    return target
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _exists_message(path: str | os.PathLike[str]) -> MissionError:
+    where = os.fspath(path)
+    return MissionError(
+        f"{where}: already exists (pass overwrite=True to replace it)",
+        cli=f"{where}: already exists (pass --force to replace it)",
+    )
+
+
+def write_text(text: str, path: str | os.PathLike[str], *, overwrite: bool) -> None:
+    """Write UTF-8 text to ``path`` atomically; an existing file is replaced only when asked.
+
+    The text goes to a temporary file in the same folder, is flushed to disk, and is then
+    renamed into place, so ``path`` holds either its old content or the whole new one,
+    never a part (a full disk or a crash leaves the old file as it was).  Without
+    ``overwrite`` the file is linked into place, which fails if it appeared meanwhile.
+    Existing paths that are not regular files (``/dev/null``, ``/dev/stdout``, a FIFO) hold
+    nothing to lose: they are written directly, without ``overwrite``.
+    """
+    data = text.encode("utf-8")
+    target = check_folder(path)
+    where = os.fspath(path)
     if target.is_dir():
-        raise MissionError(f"{os.fspath(path)}: is a directory")
-    mode = "w" if overwrite else "x"
+        raise MissionError(f"{where}: is a directory")
+    if target.exists() and not target.is_file():  # /dev/null, /dev/stdout, a FIFO: no file to lose
+        _write_directly(data, target, where)
+        return
+    if target.exists() and not overwrite:
+        raise _exists_message(path)
+    mode = (target.stat().st_mode & 0o7777) if target.exists() else 0o666 & ~_umask()
     try:
-        with target.open(mode, encoding="utf-8") as handle:
-            handle.write(text)
-    except FileExistsError:
-        raise MissionError(
-            f"{os.fspath(path)}: already exists (pass overwrite=True / --force to replace it)"
-        ) from None
-    except FileNotFoundError:
-        raise MissionError(f"{os.fspath(path)}: its folder does not exist") from None
+        fd, temporary = tempfile.mkstemp(
+            dir=target.parent, prefix=f".{target.name}.", suffix=".part"
+        )
     except PermissionError:
-        raise MissionError(f"{os.fspath(path)}: permission denied") from None
+        raise MissionError(f"{where}: permission denied") from None
+    except OSError as exc:
+        raise MissionError(f"{where}: cannot write ({exc.strerror or exc})") from None
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(temporary, mode)
+        _move_into_place(temporary, target, overwrite)
+    except FileExistsError:
+        _remove(temporary)
+        raise _exists_message(path) from None
+    except OSError as exc:
+        _remove(temporary)
+        kept = "the existing file is unchanged" if target.exists() else "nothing was written"
+        raise MissionError(f"{where}: cannot write ({exc.strerror or exc}); {kept}") from None
+    except BaseException:
+        _remove(temporary)
+        raise
+    _sync_folder(target.parent)
+
+
+def _write_directly(data: bytes, target: Path, where: str) -> None:
+    try:
+        with target.open("wb") as handle:
+            handle.write(data)
+    except OSError as exc:
+        raise MissionError(f"{where}: cannot write ({exc.strerror or exc})") from None
+
+
+def _move_into_place(temporary: str, target: Path, overwrite: bool) -> None:
+    if overwrite:
+        os.replace(temporary, target)
+        return
+    try:
+        os.link(temporary, target)  # atomic, and fails if the target appeared meanwhile
+    except FileExistsError:
+        raise
+    except OSError:  # a file system without hard links
+        if target.exists():
+            raise FileExistsError(target) from None
+        os.replace(temporary, target)
+        return
+    _remove(temporary)
+
+
+def _remove(path: str | os.PathLike[str]) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(path)
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make a rename durable (best effort: not every system can open a folder)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+#: How deeply free-form JSON (a mission's ``metadata``) may nest.
+MAX_DEPTH = 100
+
+
+def check_text(value: Any, place: str, what: str = "a non-empty string") -> str:
+    """``value`` must be a non-empty string of valid Unicode (no lone surrogates)."""
+    if not isinstance(value, str) or not value:
+        raise MissionError(f"{place}: must be {what}, got {describe(value)}")
+    if not is_unicode(value):
+        raise MissionError(
+            f"{place}: must be valid Unicode text, got {describe(value)} (a lone surrogate)"
+        )
+    return value
+
+
+def check_free_json(value: Any, place: str) -> None:
+    """Free-form data must be plain JSON that cfopt can write back unchanged.
+
+    Objects with string keys, lists, valid Unicode strings, finite numbers (integers of
+    at most 4300 digits), booleans and null, nested at most :data:`MAX_DEPTH` levels.
+    Checked without recursion, so any depth gives a clean error.
+    """
+    stack: list[tuple[Any, str, int]] = [(value, place, 0)]
+    while stack:
+        item, where, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            shown = where if len(where) <= 60 else where[:57] + "..."
+            raise MissionError(f"{shown}: nested more than {MAX_DEPTH} levels deep")
+        if isinstance(item, str):
+            if not is_unicode(item):
+                raise MissionError(f"{where}: must be valid Unicode text, got {describe(item)}")
+        elif isinstance(item, bool) or item is None:
+            continue
+        elif isinstance(item, int):
+            if item.bit_length() > _MAX_INT_BITS:
+                raise MissionError(f"{where}: {describe(item)} is out of the range cfopt writes")
+        elif isinstance(item, float):
+            if not math.isfinite(item):
+                raise MissionError(f"{where}: must be a finite number, got {describe(item)}")
+        elif isinstance(item, Mapping):
+            for key, inner in item.items():
+                if not isinstance(key, str) or not is_unicode(key):
+                    raise MissionError(
+                        f"{where}: keys must be valid Unicode strings, got {describe(key)}"
+                    )
+                stack.append((inner, key_path(where, key), depth + 1))
+        elif isinstance(item, list | tuple):
+            stack.extend((inner, f"{where}[{k}]", depth + 1) for k, inner in enumerate(item))
+        else:
+            raise MissionError(f"{where}: must be JSON data, got a {type(item).__name__}")
+
+
+_MAX_INT_BITS = int(MAX_DIGITS / 0.30103) - 4
 
 
 def expect_object(value: Any, place: str) -> dict[str, Any]:

@@ -102,7 +102,7 @@ class Assignment:
         try:
             return _parse_assignment(mission, value)
         except MissionError as exc:
-            raise MissionError(f"{name}: {exc}") from None
+            raise exc.prefixed(name) from None
 
     # --------------------------------------------------------------------- checking
     def validate(self, mission: Mission) -> None:

@@ -1,27 +1,37 @@
 """The ``cfopt`` command line: parse, call the API, print.
 
 Exit codes: 0 success (an unstable or suboptimal answer is still an answer), 2 bad
-input or usage (one line on stderr starting ``error:``, no traceback), 1 an internal
-failure (a bug: the traceback is printed).
+input or usage (one line on stderr starting ``error:``, no traceback: also a file that
+cannot be written, a request too large for this machine's memory), 1 an internal failure
+(a bug: the traceback is printed), 130 interrupted by Ctrl-C (SIGINT) and 143 stopped by
+SIGTERM, with one line on stderr and everything already stored kept.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import json
 import math
+import os
+import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn
 
 from cfopt import __version__
-from cfopt.errors import MissionError
+from cfopt.errors import MissionError, plural
 from cfopt.generate import generate_mission
 from cfopt.mission import Mission
 
 __all__ = ["main"]
 
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT = 0, 1, 2
+#: ``128 + signal number``, as shells report a process ended by that signal.
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
+#: Write errors of the streams (a full disk, a quota, a file size limit): bad luck, not a bug.
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EIO, getattr(errno, "EDQUOT", errno.ENOSPC)}
 #: Violations listed per kind in human-readable output (``--json`` lists them all).
 _SHOWN = 10
 
@@ -39,6 +49,10 @@ class _Parser(argparse.ArgumentParser):
 # ------------------------------------------------------------------ argument types
 def _whole_number(low: int) -> Callable[[str], int]:
     def parse(text: str) -> int:
+        if len(text.strip()) > 100:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number of at most 100 digits, got {len(text)} characters"
+            )
         try:
             value = int(text)
         except ValueError:
@@ -72,13 +86,50 @@ def emit_json(obj: Any) -> None:
 
 
 def write_output(text: str, target: str, force: bool) -> None:
-    """Write ``text`` to a file or to stdout (``-``); never replace a file unless forced."""
+    """Write ``text`` to a file (atomically) or to stdout (``-``); never replace a file
+    unless forced."""
     from cfopt._jsonio import write_text
 
     if target == "-":
         sys.stdout.write(text)
     else:
         write_text(text, target, overwrite=force)
+
+
+def _yes_no(value: bool) -> str:
+    return "yes" if value else "no"
+
+
+def _add_output_options(sub: argparse.ArgumentParser) -> None:
+    """``-o FILE`` and ``--force`` for the commands that produce an assignment."""
+    sub.add_argument(
+        "-o",
+        "--output",
+        default=None,
+        metavar="FILE",
+        help="also write the assignment to FILE (cfopt.assignment/1, what 'cfopt check' "
+        "reads); '-' prints only the assignment JSON on stdout and the summary on stderr",
+    )
+    sub.add_argument("--force", action="store_true", help="replace FILE if it exists")
+
+
+def _print_result(summary: list[str], assignment_json: str, args: argparse.Namespace) -> None:
+    """The summary lines, then the assignment: to FILE, alone on stdout (``-o -``), or after
+    the summary."""
+    if args.output == "-":
+        sys.stderr.write("\n".join(summary) + "\n")
+        sys.stdout.write(assignment_json)
+        return
+    print("\n".join(summary))
+    if args.output is None:
+        sys.stdout.write(assignment_json)
+    else:
+        print(f"assignment: {args.output}")
+
+
+def _save_assignment(assignment_json: str, args: argparse.Namespace) -> None:
+    if args.output not in (None, "-"):
+        write_output(assignment_json, args.output, args.force)
 
 
 def _add_workers_option(sub: argparse.ArgumentParser) -> None:
@@ -137,7 +188,7 @@ def _add_generate(sub: argparse.ArgumentParser) -> Handler:
         "--output",
         default="-",
         metavar="FILE",
-        help="where to write the mission JSON ('-' = stdout, the default)",
+        help="where to write the mission JSON ('-' = stdout, the default); its folder must exist",
     )
     sub.add_argument("--force", action="store_true", help="replace FILE if it exists")
 
@@ -173,7 +224,10 @@ def _add_validate(sub: argparse.ArgumentParser) -> Handler:
                 }
             )
         else:
-            print(f"ok: {m.n_robots} robots, {m.n_tasks} tasks, {m.n_services} services")
+            print(
+                f"ok: {plural(m.n_robots, 'robot')}, {plural(m.n_tasks, 'task')}, "
+                f"{plural(m.n_services, 'service')}"
+            )
         return EXIT_OK
 
     return run
@@ -183,7 +237,7 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
         "--quick",
         action="store_true",
-        help="100-robot cells only, 2 missions each, claims budget 5 (about a minute)",
+        help="100-robot cells only, 2 missions each, claims budget 5 (a minute or two)",
     )
     sub.add_argument(
         "--claims-only",
@@ -196,14 +250,16 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         "--output",
         default="cfopt-audit",
         metavar="DIR",
-        help="report directory (default: cfopt-audit); its trials.sqlite lets an "
-        "interrupted audit resume",
+        help="report directory, created if missing (its parent folder must exist; default: "
+        "cfopt-audit); its trials.sqlite lets an interrupted audit resume",
     )
     sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
     _add_workers_option(sub)
+    _add_quiet_option(sub)
 
     def run(args: argparse.Namespace) -> int:
-        from cfopt.report import run_audit
+        from cfopt._progress import Progress
+        from cfopt.audit import run_audit
 
         result = run_audit(
             args.output,
@@ -211,6 +267,7 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
             claims_only=args.claims_only,
             workers=args.workers,
             force=args.force,
+            progress=Progress.auto(quiet=args.quiet),
         )
         if args.json:
             emit_json(result.to_dict())
@@ -230,6 +287,14 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
+def _add_quiet_option(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress on stderr (by default: bars on a terminal, one line per stage otherwise)",
+    )
+
+
 def _add_solve(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
     sub.add_argument(
@@ -247,21 +312,25 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
         help="ILP formulation: by capability type (default, small) or per robot (cross-check)",
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
+    _add_output_options(sub)
 
     def run(args: argparse.Namespace) -> int:
         from cfopt.exact import solve_exact
 
         m = load_mission(args.mission)
+        _check_output_free(args)
         result = solve_exact(m, time_limit=args.time_limit, formulation=args.formulation)
+        assignment_json = result.assignment.to_json(m)
+        _save_assignment(assignment_json, args)
         if args.json:
             emit_json(result.to_dict(m))
-        else:
-            print(
-                f"{result.status.value}: utility {result.utility:g} of {result.total_utility:g}, "
-                f"bound {result.bound:g}, gap {result.gap:.3g}, {result.seconds:.3f} s "
-                f"({result.formulation} formulation)"
-            )
-            sys.stdout.write(result.assignment.to_json(m))
+            return EXIT_OK
+        summary = [
+            f"{result.status.value}: utility {result.utility:g} of {result.total_utility:g}, "
+            f"bound {result.bound:g}, gap {result.gap:.3g}, {result.seconds:.3f} s "
+            f"({result.formulation} formulation)"
+        ]
+        _print_result(summary, assignment_json, args)
         return EXIT_OK
 
     return run
@@ -287,44 +356,91 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
 
+    _add_output_options(sub)
+
     def run(args: argparse.Namespace) -> int:
         import proofs
         from heuristics.registry import get_algorithm
 
         algorithm = get_algorithm(args.algorithm)
         m = load_mission(args.mission)
+        _check_output_free(args)
         result = algorithm(m, seed=args.seed, order=args.order)
         a = result.assignment
         out = result.to_dict(m)
         assignment = out.pop("assignment")
         out["nash_stable"] = proofs.is_nash_stable(m, a)
+        # strict pairwise stability (the seed's Theorem 1) coincides with Nash stability
+        # under the seed's reward; the pareto notion is the informative one, so both
         out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
-        # strict pairwise stability coincides with Nash stability under the paper's
-        # reward; the pareto notion is the informative one, so report it too
         out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
         out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
         out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
         out["assignment"] = assignment
+        assignment_json = a.to_json(m)
+        _save_assignment(assignment_json, args)
         if args.json:
             emit_json(out)
-        else:
-            yes_no = {True: "yes", False: "no"}
-            print(
-                f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
-                f"({out['percent_utility']:.2f}%), {result.iterations} iterations, "
-                f"{result.rounds} rounds, {result.messages} messages, {result.bytes} bytes, "
-                f"nash stable {yes_no[out['nash_stable']]}, "
-                f"pairwise stable {yes_no[out['pairwise_stable']]}, {result.seconds:.3f} s"
-            )
-            sys.stdout.write(a.to_json(m))
+            return EXIT_OK
+        summary = [
+            f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
+            f"({out['percent_utility']:.2f}%), {plural(result.iterations, 'iteration')}, "
+            f"{plural(result.rounds, 'round')}, {plural(result.messages, 'message')}, "
+            f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s",
+            f"stability: Nash {_yes_no(out['nash_stable'])}, "
+            f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
+            f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
+        ]
+        _print_result(summary, assignment_json, args)
         return EXIT_OK
 
     return run
 
 
+def _check_output_free(args: argparse.Namespace) -> None:
+    """Refuse an existing ``-o FILE`` before the work, not after it."""
+    from cfopt._jsonio import check_folder
+
+    if args.output in (None, "-"):
+        return
+    target = check_folder(args.output)
+    if target.is_dir():
+        raise MissionError(f"{args.output}: is a directory")
+    if target.exists() and not args.force:
+        raise MissionError(f"{args.output}: already exists (pass --force to replace it)")
+
+
+def load_assignment(mission: Mission, path: str) -> Any:
+    """An assignment file, or the ``--json`` output of ``cfopt run`` / ``cfopt solve``.
+
+    The JSON of a run or a solve holds the assignment's list under ``"assignment"``
+    beside its figures; only that list is read, and it is validated as a
+    ``cfopt.assignment/1`` file would be.
+    """
+    from cfopt._jsonio import read_json
+    from cfopt.assignment import Assignment
+
+    value, name = read_json(sys.stdin if path == "-" else path)
+    if (
+        isinstance(value, dict)
+        and "assignment" in value
+        and "utility" in value
+        and ("algorithm" in value or "status" in value)
+    ):
+        value = {"assignment": value["assignment"]}
+    try:
+        return Assignment.from_dict(mission, value)
+    except MissionError as exc:
+        raise exc.prefixed(name) from None
+
+
 def _add_check(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
-    sub.add_argument("assignment", metavar="ASSIGNMENT", help="assignment JSON file ('-' = stdin)")
+    sub.add_argument(
+        "assignment",
+        metavar="ASSIGNMENT",
+        help="assignment file ('-' = stdin), or the --json output of cfopt run or cfopt solve",
+    )
     sub.add_argument(
         "--capped",
         action="store_true",
@@ -334,12 +450,11 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
 
     def run(args: argparse.Namespace) -> int:
         import proofs
-        from cfopt.assignment import Assignment
 
         if args.mission == "-" and args.assignment == "-":
             raise MissionError("MISSION and ASSIGNMENT cannot both be read from stdin ('-')")
         m = load_mission(args.mission)
-        a = Assignment.from_json(m, sys.stdin if args.assignment == "-" else args.assignment)
+        a = load_assignment(m, args.assignment)
         nash = proofs.nash_violations(m, a, capped=args.capped)
         strict = proofs.pairwise_violations(m, a, mode="strict", capped=args.capped)
         pareto = proofs.pairwise_violations(m, a, mode="pareto", capped=args.capped)
@@ -361,7 +476,7 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
             emit_json(out)
             return EXIT_OK
         print(
-            f"valid: {a.n_assigned} of {m.n_robots} robots assigned, utility "
+            f"valid: {a.n_assigned} of {plural(m.n_robots, 'robot')} assigned, utility "
             f"{out['utility']:g} of {out['total_utility']:g} ({out['percent_utility']:.2f}%)"
             + (", capped moves" if args.capped else "")
         )
@@ -370,7 +485,8 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
             ("pairwise stable (strict)", strict),
             ("pairwise stable (pareto)", pareto),
         ):
-            print(f"{label}: {'yes' if not items else f'no, {len(items)} violations'}")
+            verdict = "yes" if not items else f"no, {plural(len(items), 'violation')}"
+            print(f"{label}: {verdict}")
             for v in items[:_SHOWN]:
                 print(f"  {v.describe(m)}")
             if len(items) > _SHOWN:
@@ -389,8 +505,9 @@ def _report_failures(outcome: Any, claim_failures: Sequence[tuple[str, str]] = (
         sys.stderr.write(f"claim {claim_id}: the check failed:\n{trace}\n")
     if trial_failures or claim_failures:
         sys.stderr.write(
-            f"{len(trial_failures)} trials and {len(claim_failures)} claim checks failed "
-            "(a bug); finished trials are kept and the next run retries the rest\n"
+            f"{plural(len(trial_failures), 'trial')} and "
+            f"{plural(len(claim_failures), 'claim check')} failed (a bug); finished trials "
+            "are kept and the next run retries the rest\n"
         )
         return EXIT_BUG
     return EXIT_OK
@@ -421,7 +538,8 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         default=None,
         metavar="NAME|FILE",
         help="paper (default: the seed's 32 cells), paper-distributed (100 and 500 robots), "
-        "audit, quick, or a .toml/.json grid file",
+        "audit, quick, or a .toml/.json grid file whose keys are these options' names "
+        "(robots, percent_tasks, compositions, load, missions) and/or [[cells]] tables",
     )
     sub.add_argument(
         "--robots",
@@ -482,13 +600,17 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         "--store",
         default="cfopt-sweep.sqlite",
         metavar="FILE",
-        help="SQLite result store, created or resumed (default: cfopt-sweep.sqlite)",
+        help="SQLite result store, created or resumed (default: cfopt-sweep.sqlite); its "
+        "folder must exist; one sweep at a time may write to it",
     )
-    sub.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_quiet_option(sub)
     sub.add_argument("--json", action="store_true", help="print one JSON object")
 
     def run(args: argparse.Namespace) -> int:
         from cfopt import experiments
+
+        custom = args.robots is not None
+        from cfopt._progress import Progress
 
         custom = args.robots is not None
         if not custom and (args.percent_tasks or args.compositions):
@@ -505,15 +627,8 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             )
             missions = missions or 5
         else:
-            grid = args.grid or "paper"
-            if grid in experiments.GRIDS:
-                cells = experiments.named_grid(grid, args.load)
-                missions = missions or experiments.GRIDS[grid][1]
-            else:
-                if args.load:
-                    raise MissionError("--load: a grid file sets its own loads")
-                cells, file_missions = experiments.grid_from_file(grid)
-                missions = missions or file_missions or 5
+            cells, grid_missions = experiments.resolve_grid(args.grid or "paper", args.load)
+            missions = missions or grid_missions or 5
         sweep = experiments.Sweep(
             cells=cells,
             missions=missions,
@@ -522,7 +637,7 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             time_limit=args.time_limit,
         )
         outcome = experiments.run_sweep(
-            sweep, args.store, workers=args.workers, progress=not args.quiet
+            sweep, args.store, workers=args.workers, progress=Progress.auto(quiet=args.quiet)
         )
         if args.json:
             emit_json(
@@ -538,10 +653,11 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             )
         else:
             print(
-                f"{outcome.store}: {outcome.completed} trials run, {outcome.skipped} already "
-                f"stored, {len(outcome.failures)} failed, of {outcome.total} "
-                f"({len(sweep.cells)} cells x {sweep.missions} missions x "
-                f"{len(sweep.algorithms or ())} algorithms), {outcome.seconds:.1f} s"
+                f"{outcome.store}: {plural(outcome.completed, 'trial')} run, "
+                f"{outcome.skipped} already stored, {len(outcome.failures)} failed, of "
+                f"{outcome.total} ({plural(len(sweep.cells), 'cell')} x "
+                f"{plural(sweep.missions, 'mission')} x "
+                f"{plural(len(sweep.algorithms or ()), 'algorithm')}), {outcome.seconds:.1f} s"
             )
         return _report_failures(outcome)
 
@@ -555,7 +671,8 @@ def _add_report(sub: argparse.ArgumentParser) -> Handler:
         "--output",
         default="cfopt-report",
         metavar="DIR",
-        help="report directory (default: cfopt-report)",
+        help="report directory, created if missing (its parent folder must exist; default: "
+        "cfopt-report)",
     )
     sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
     sub.add_argument(
@@ -614,14 +731,97 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception so that a sweep stops cleanly (like Ctrl-C)."""
+
+    signal_name = "SIGTERM"
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Terminated()
+
+
+def _configure_streams() -> None:
+    """UTF-8 on stdout and stderr whatever the locale; text that cannot be encoded (a lone
+    surrogate in a file name) is escaped rather than crashing the output."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(encoding="utf-8", errors="backslashreplace")
+            except (ValueError, OSError):  # a stream that cannot change any more
+                continue
+
+
+def _silence_stdout() -> None:
+    """After a failed write, point stdout at /dev/null so the exit flush cannot fail too."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # io.UnsupportedOperation is both
+        pass
+
+
+def _error(text: str) -> None:
+    with contextlib.suppress(OSError, ValueError):
+        sys.stderr.write(f"error: {text}\n")
+        sys.stderr.flush()
+
+
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    from cfopt.experiments import SweepInterrupted
+
+    name = getattr(exc, "signal_name", "SIGINT")
+    if isinstance(exc, SweepInterrupted):
+        kept = f"{plural(exc.completed, 'trial')} computed by this run"
+        if exc.extra:
+            kept += f" and {exc.extra}"
+        _error(
+            f"interrupted ({name}): {kept} are kept in {exc.store}; run the same command "
+            "again to resume"
+        )
+    else:
+        _error(f"interrupted ({name})")
+    return EXIT_SIGTERM if name == "SIGTERM" else EXIT_SIGINT
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``cfopt`` with ``argv`` (default: ``sys.argv[1:]``); returns the exit code."""
-    args = build_parser().parse_args(argv)
+    _configure_streams()
     try:
-        return args.handler(args)
+        with _sigterm_as_interrupt():
+            args = build_parser().parse_args(argv)
+            code = args.handler(args)
+            sys.stdout.flush()
+            return code
     except MissionError as exc:
-        sys.stderr.write(f"error: {exc}\n")
+        _error(exc.cli_message)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt as exc:
+        return _interrupted(exc)
     except BrokenPipeError:
-        sys.stderr.close()  # the reader went away (e.g. `| head`); nothing left to say
+        _silence_stdout()  # the reader went away (e.g. `| head`); nothing left to say
         return EXIT_OK
+    except MemoryError:
+        _error("out of memory: the input is too large for this machine")
+        return EXIT_BAD_INPUT
+    except OSError as exc:
+        if exc.errno not in _WRITE_ERRNOS:
+            raise
+        _silence_stdout()
+        _error(f"cannot write the output ({exc.strerror or exc})")
+        return EXIT_BAD_INPUT

@@ -6,7 +6,7 @@ import json
 import re
 from typing import Any
 
-__all__ = ["MissionError", "describe", "key_path"]
+__all__ = ["MissionError", "describe", "key_path", "parameter_error", "plural"]
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 _MAX_SHOWN = 60
@@ -17,23 +17,85 @@ class MissionError(ValueError):
 
     The message names the place, e.g. ``tasks[3].requires.lift: must be a whole
     number >= 1, got 2.5``; when the input came from a file it starts with the file
-    name.  The command line prints exactly this message after ``error:``.
+    name.  The command line prints exactly this message after ``error:``, or
+    :attr:`cli_message` when the error has a wording of its own for the command line
+    (a parameter named by its flag, ``--services-per-robot`` rather than
+    ``services_per_robot``).
+
+    >>> err = MissionError("load: must be > 0", cli="--load: must be > 0")
+    >>> str(err), err.cli_message, str(err.prefixed("grid.toml"))
+    ('load: must be > 0', '--load: must be > 0', 'grid.toml: load: must be > 0')
     """
+
+    def __init__(self, message: str, *, cli: str | None = None) -> None:
+        super().__init__(message)
+        self.cli_message = cli if cli is not None else message
+
+    def prefixed(self, prefix: str) -> MissionError:
+        """The same error with ``prefix: `` in front of both wordings (e.g. a file name)."""
+        return MissionError(f"{prefix}: {self}", cli=f"{prefix}: {self.cli_message}")
+
+
+def parameter_error(name: str, problem: str) -> MissionError:
+    """An error about the keyword argument ``name``, worded for Python and for the CLI.
+
+    >>> parameter_error("services_per_robot", "must be >= 1, got 0").cli_message
+    '--services-per-robot: must be >= 1, got 0'
+    """
+    return MissionError(f"{name}: {problem}", cli=f"--{name.replace('_', '-')}: {problem}")
+
+
+def plural(count: int, word: str, many: str | None = None) -> str:
+    """``"1 task"``, ``"4 tasks"``: a count with its noun in the right number.
+
+    >>> plural(1, "violation"), plural(4, "robot"), plural(2, "bus", "buses")
+    ('1 violation', '4 robots', '2 buses')
+    """
+    return f"{count} {word if count == 1 else (many or word + 's')}"
 
 
 def describe(value: Any) -> str:
     """Show a user's value as it looks in JSON, shortened when long.
 
+    Values that JSON cannot show (nested too deeply, integers of thousands of digits)
+    are described instead of shown, and text that is not valid Unicode (a lone
+    surrogate such as ``"\\ud800"``) is shown with escapes, so the message itself can
+    always be printed.
+
     >>> describe(True), describe("2"), describe(2.5), describe(float("nan"))
     ('true', '"2"', '2.5', 'NaN')
+    >>> describe("\\ud800"), describe(10**5000)
+    ('"\\\\ud800"', 'a whole number of about 5001 digits')
     """
     try:
         text = json.dumps(value, ensure_ascii=False, allow_nan=True)
-    except (TypeError, ValueError):
-        text = repr(value)
+    except (TypeError, ValueError, RecursionError):
+        text = _summary(value)
+    if not is_unicode(text):
+        text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     if len(text) > _MAX_SHOWN:
         text = text[: _MAX_SHOWN - 3] + "..."
     return text
+
+
+def is_unicode(text: str) -> bool:
+    """Whether ``text`` is valid Unicode (encodable as UTF-8: no lone surrogates)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _summary(value: Any) -> str:
+    if isinstance(value, int) and not isinstance(value, bool):
+        digits = int(value.bit_length() * 0.30103) + 1  # str() refuses > 4300 digits
+        return f"a whole number of about {digits} digits" if digits > 20 else repr(value)
+    if isinstance(value, list):
+        return f"a list of {plural(len(value), 'item')} nested too deeply to show"
+    if isinstance(value, dict):
+        return f"an object of {plural(len(value), 'key')} nested too deeply to show"
+    return f"a {type(value).__name__}"
 
 
 def key_path(parent: str, key: str) -> str:
@@ -44,4 +106,4 @@ def key_path(parent: str, key: str) -> str:
     """
     if _IDENTIFIER.match(key):
         return f"{parent}.{key}" if parent else key
-    return f"{parent}[{json.dumps(key, ensure_ascii=False)}]"
+    return f"{parent}[{describe(key)}]"

@@ -40,50 +40,59 @@ Examples
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import hashlib
 import itertools
-import json
 import math
 import os
-import sqlite3
+import subprocess
 import sys
 import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from cfopt import __version__
-from cfopt.errors import MissionError, describe
+from cfopt._jsonio import read_json, read_text_file
+from cfopt._limits import require_memory
+from cfopt._progress import Progress
+from cfopt._workers import default_workers, make_executor, stop_executor
+from cfopt.errors import MissionError, describe, parameter_error
 from cfopt.generate import GridCell, paper_distributed_grid, paper_grid
+from cfopt.store import EXACT, ResultStore, Trial, store_lock
 
 __all__ = [
     "EXACT",
     "GRIDS",
     "ResultStore",
     "Sweep",
+    "SweepInterrupted",
     "SweepOutcome",
     "Trial",
     "audit_grid",
     "code_version",
+    "describe_version",
     "grid_from_file",
+    "make_executor",
     "named_grid",
     "product_grid",
     "quick_grid",
+    "resolve_grid",
     "run_sweep",
     "run_trial",
 ]
 
-#: The algorithm name of the exact solve in the store.
-EXACT = "exact"
 #: Default HiGHS time limit (seconds) of a sweep's exact solves.
 DEFAULT_TIME_LIMIT = 60.0
 _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))
 _PERCENTS = (1.0, 10.0, 50.0)
-_SCHEMA_VERSION = "2"
-_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+#: Memory a sweep holds per trial before running it (its queue entry and key).
+_BYTES_PER_TRIAL = 400
 
 
 # --------------------------------------------------------------------------- grids
@@ -170,7 +179,7 @@ def product_grid(
 
 
 def parse_composition(text: str) -> tuple[int, int]:
-    """``"10:5"`` -> ``(10, 5)``.
+    """``"10:5"`` -> ``(10, 5)``: service types, services per robot (1 <= k <= S).
 
     >>> parse_composition("10:5")
     (10, 5)
@@ -182,10 +191,15 @@ def parse_composition(text: str) -> tuple[int, int]:
         raise MissionError(
             f"composition: must be SERVICE_TYPES:SERVICES_PER_ROBOT like 10:5, got {text!r}"
         ) from None
+    if not 1 <= k <= s:
+        raise MissionError(
+            f"composition {text}: the services per robot ({k}) must be between 1 and the "
+            f"service types ({s})"
+        )
     return s, k
 
 
-_FILE_KEYS = ("robots", "percent_tasks", "compositions", "loads", "missions", "cells")
+_FILE_KEYS = ("robots", "percent_tasks", "compositions", "load", "loads", "missions", "cells")
 _CELL_KEYS = ("robots", "percent_tasks", "service_types", "services_per_robot", "load")
 
 
@@ -197,7 +211,7 @@ def grid_from_file(path: str | os.PathLike[str]) -> tuple[tuple[GridCell, ...], 
         robots = [20, 30]                # the product (robots is required for it);
         percent_tasks = [10, 50]         # missing keys take the seed's values:
         compositions = ["5:1", "10:5"]   # 1, 10, 50 percent; 5:1, 5:5, 10:1, 10:5;
-        loads = [1.0, 1.25]              # load 1
+        load = [1.0, 1.25]               # load 1 ("loads" is accepted too)
         missions = 3                     # optional: missions per cell
 
         [[cells]]                        # explicit cells, after the product's
@@ -207,36 +221,50 @@ def grid_from_file(path: str | os.PathLike[str]) -> tuple[tuple[GridCell, ...], 
         services_per_robot = 2
         load = 1.25                      # optional, default 1
 
-    Returns the cells and ``missions`` (``None`` when the file does not say).  Unknown
-    keys and bad values are :class:`cfopt.MissionError` naming the file and the place.
+    The keys are the ``cfopt sweep`` flags' names with ``_`` for ``-``.  Returns the
+    cells and ``missions`` (``None`` when the file does not say).  Unknown keys and bad
+    values are :class:`cfopt.MissionError` naming the file and the place.
     """
     name = os.fspath(path)
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise MissionError(f"{name}: no such file") from None
-    except OSError as exc:
-        raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
-    try:
-        text = raw.decode("utf-8")
-        if name.lower().endswith(".toml"):
-            import tomllib
+    suffix = name.lower().rsplit(".", 1)[-1]
+    if suffix not in ("toml", "json"):
+        raise MissionError(f"{name}: a grid file must end in .toml or .json")
+    if suffix == "json":
+        data, _ = read_json(path)
+    else:
+        import tomllib
 
-            data = tomllib.loads(text)
-        elif name.lower().endswith(".json"):
-            data = json.loads(text)
-        else:
-            raise MissionError(f"{name}: a grid file must end in .toml or .json")
-    except UnicodeDecodeError:
-        raise MissionError(f"{name}: not UTF-8 text") from None
-    except ValueError as exc:  # tomllib.TOMLDecodeError and JSONDecodeError
-        if isinstance(exc, MissionError):
-            raise
-        raise MissionError(f"{name}: not valid {name.rsplit('.', 1)[-1].upper()}: {exc}") from None
+        try:
+            data = tomllib.loads(read_text_file(path))
+        except ValueError as exc:  # tomllib.TOMLDecodeError, or an integer too long
+            raise MissionError(f"{name}: not valid TOML: {exc}") from None
     try:
         return _grid_from_data(data)
     except MissionError as exc:
-        raise MissionError(f"{name}: {exc}") from None
+        raise exc.prefixed(name) from None
+
+
+def resolve_grid(
+    grid: str, loads: Sequence[float] | None = None
+) -> tuple[tuple[GridCell, ...], int | None]:
+    """The cells of ``grid`` (a name of :data:`GRIDS` or a grid file) and its missions.
+
+    >>> cells, missions = resolve_grid("quick")
+    >>> len(cells), missions
+    (12, 2)
+    """
+    if grid in GRIDS:
+        return named_grid(grid, loads), GRIDS[grid][1]
+    if not grid.lower().endswith((".toml", ".json")) and not Path(grid).exists():
+        raise MissionError(
+            f"grid: unknown grid {grid!r}: give one of {', '.join(GRIDS)}, "
+            "or a .toml/.json grid file",
+            cli=f"--grid: unknown grid {grid!r}: give one of {', '.join(GRIDS)}, "
+            "or a .toml/.json grid file",
+        )
+    if loads:
+        raise parameter_error("load", "a grid file sets its own loads")
+    return grid_from_file(grid)
 
 
 def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
@@ -252,8 +280,10 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
             raise MissionError(f"{key}: must be a non-empty list, got {describe(value)}")
         return value
 
+    if "load" in data and "loads" in data:
+        raise MissionError('loads: give "load" or "loads" (the same key), not both')
     cells: list[GridCell] = []
-    product_keys = ("robots", "percent_tasks", "compositions", "loads")
+    product_keys = ("robots", "percent_tasks", "compositions", "load", "loads")
     if any(k in data for k in product_keys):
         if "robots" not in data:
             raise MissionError('robots: required for a product grid (missing key "robots")')
@@ -269,10 +299,10 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
                     values("robots", []),
                     values("percent_tasks", list(_PERCENTS)),
                     comps,
-                    values("loads", [1.0]),
+                    values("loads" if "loads" in data else "load", [1.0]),
                 )
             )
-        except MissionError as exc:
+        except MissionError as exc:  # the file's keys, not the command line's flags
             raise MissionError(f"product: {exc}") from None
     for i, entry in enumerate(data.get("cells", [])):
         if not isinstance(entry, dict):
@@ -301,15 +331,17 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
 
 # ------------------------------------------------------------------- code version
 #: Modules left out of :func:`code_version` (they do not shape a trial's values).
-_NOT_TRIAL_SOURCES = {"cfopt": ("cli.py", "report.py", "__main__.py"), "heuristics": ()}
+_NOT_TRIAL_SOURCES = {"cfopt": ("cli.py", "report.py", "audit.py", "_progress.py", "__main__.py")}
 
 
-def code_version() -> str:
-    """``"<cfopt version>+<hash>"``: a digest of the sources that shape a trial.
+def code_version(scope: str = "trials") -> str:
+    """``"<cfopt version>+<hash>"``: a digest of the sources that shape a result.
 
-    The hash covers ``cfopt`` (all modules but the CLI and the report), ``heuristics``
-    and ``proofs/stability.py``.  Any change there is a new code version, and a sweep
-    re-runs its trials rather than mixing results of different code.
+    With ``scope="trials"`` the hash covers ``cfopt`` (all modules but the CLI, the
+    report and the audit's orchestration), ``heuristics`` and ``proofs/stability.py``:
+    any change there is a new code version, and a sweep re-runs its trials rather than
+    mixing results of different code.  ``scope="claims"`` covers all of ``proofs`` as
+    well (the claims' checks), and keys the audit's stored claim verdicts.
 
     >>> code_version().startswith(__version__ + "+")
     True
@@ -317,14 +349,16 @@ def code_version() -> str:
     import heuristics
     import proofs
 
+    if scope not in ("trials", "claims"):
+        raise parameter_error("scope", f"must be trials or claims, got {scope!r}")
     digest = hashlib.sha256()
     for package in (sys.modules["cfopt"], heuristics, proofs):
         root = Path(package.__file__).parent  # type: ignore[arg-type]
         name = package.__name__
-        if name == "proofs":
+        if name == "proofs" and scope == "trials":
             files = [root / "stability.py"]
         else:
-            excluded = _NOT_TRIAL_SOURCES[name]
+            excluded = _NOT_TRIAL_SOURCES.get(name, ())
             files = sorted(p for p in root.rglob("*.py") if p.name not in excluded)
         for path in files:
             digest.update(f"{name}/{path.relative_to(root).as_posix()}\0".encode())
@@ -333,126 +367,33 @@ def code_version() -> str:
     return f"{__version__}+{digest.hexdigest()[:12]}"
 
 
-# ------------------------------------------------------------------------- trials
-@dataclass(frozen=True)
-class Trial:
-    """One algorithm on one mission, scored against the mission's optimum (frozen).
+def _git(root: Path, *args: str) -> str:
+    run = subprocess.run(
+        ["git", "-C", os.fspath(root), *args],
+        capture_output=True,
+        text=True,
+        timeout=10,
+        check=True,
+    )
+    return run.stdout.strip()
 
-    Attributes
-    ----------
-    cell : str
-        :attr:`cfopt.GridCell.label`, e.g. ``"n=100 p=10% 10:5 load=1"``.
-    robots, percent_tasks, service_types, services_per_robot, load
-        The cell's parameters.
-    mission_index, base_seed, mission_seed : int
-        The mission is ``cell.mission(mission_index, base_seed)``, i.e.
-        ``cfopt generate ... --seed mission_seed``.
-    tasks : int
-        Tasks in the mission.
-    total_utility : float
-        Sum of the task utilities.
-    algorithm : str
-        ``"exact"`` or a registry name (``"grape-s"``...).
-    code_version : str
-        :func:`code_version` of the code that computed the trial.
-    utility : float
-        Utility of the algorithm's assignment, recomputed from scratch.
-    optimum, optimum_bound : float
-        The exact solve's utility and proven upper bound on the same mission.
-    optimum_status : str
-        ``"optimal"`` (proven), ``"time_limit"`` (``optimum`` is only the best found;
-        the truth lies in ``[optimum, optimum_bound]``) or ``"error"``.
-    percent_optimum : float or None
-        ``100 utility / optimum`` (100 when both are 0); can exceed 100 when the optimum
-        is not proven; ``None`` when the solver failed.
-    percent_total : float
-        ``100 utility / total_utility``.
-    iterations, rounds, messages, bytes, work : int or None
-        The heuristic's counts (:class:`heuristics.Run`); ``None`` for ``exact``.
-    seconds : float
-        Wall-clock time of the algorithm call (the solve for ``exact``).
-    nash_stable, nash_stable_capped, pairwise_stable, pairwise_stable_capped : bool
-        :mod:`proofs` verdicts on the assignment (pairwise: ``mode="strict"``, which under
-        the paper's reward coincides with Nash stability).
-    pareto_stable : bool
-        Pairwise stability with ``mode="pareto"`` (one deviator strictly better, neither
-        worse): the informative pairwise notion.
-    pairwise_step_ran : bool or None
-        Pair-GRAPE-S only: whether its pairwise step was needed.
-    algorithm_seed : int or None
-        The seed the heuristic ran with (the mission seed).
-    finished : float
-        Unix time when the trial finished.
+
+def describe_version() -> str:
+    """The package version, plus the git commit when cfopt runs from a git checkout.
+
+    ``"0.1.0 (git 6adb985)"``, ``"0.1.0 (git 6adb985, with uncommitted changes)"``, or
+    just ``"0.1.0"`` for an installed copy.  For people; trials are keyed by
+    :func:`code_version`.
     """
-
-    cell: str
-    robots: int
-    percent_tasks: float
-    service_types: int
-    services_per_robot: int
-    load: float
-    mission_index: int
-    base_seed: int
-    mission_seed: int
-    tasks: int
-    total_utility: float
-    algorithm: str
-    code_version: str
-    utility: float
-    optimum: float
-    optimum_bound: float
-    optimum_status: str
-    percent_optimum: float | None
-    percent_total: float
-    iterations: int | None
-    rounds: int | None
-    messages: int | None
-    bytes: int | None
-    work: int | None
-    seconds: float
-    nash_stable: bool
-    nash_stable_capped: bool
-    pairwise_stable: bool
-    pairwise_stable_capped: bool
-    pareto_stable: bool
-    pairwise_step_ran: bool | None
-    algorithm_seed: int | None
-    finished: float
-
-    @property
-    def optimum_proven(self) -> bool:
-        """Whether the optimum this trial is scored against was proven optimal."""
-        return self.optimum_status == "optimal"
-
-    @property
-    def composition(self) -> str:
-        """``"S:k"``."""
-        return f"{self.service_types}:{self.services_per_robot}"
-
-    @property
-    def key(self) -> tuple[str, int, str, str]:
-        """The store's primary key ``(cell, mission_seed, algorithm, code_version)``."""
-        return (self.cell, self.mission_seed, self.algorithm, self.code_version)
-
-    def to_dict(self) -> dict[str, Any]:
-        """All fields, JSON-ready."""
-        return asdict(self)
-
-
-_BOOL_FIELDS = {
-    "nash_stable",
-    "nash_stable_capped",
-    "pairwise_stable",
-    "pairwise_stable_capped",
-    "pareto_stable",
-    "pairwise_step_ran",
-}
-_INT_FIELDS = {
-    "robots", "service_types", "services_per_robot", "mission_index", "base_seed",
-    "mission_seed", "tasks", "iterations", "rounds", "messages", "bytes", "work",
-    "algorithm_seed",
-}  # fmt: skip
-_TRIAL_FIELDS = tuple(f.name for f in fields(Trial))
+    root = Path(sys.modules["cfopt"].__file__).resolve().parent.parent  # type: ignore[arg-type]
+    if not (root / ".git").exists():
+        return __version__
+    try:
+        commit = _git(root, "rev-parse", "--short", "HEAD")
+        dirty = _git(root, "status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.SubprocessError):
+        return __version__
+    return f"{__version__} (git {commit}{', with uncommitted changes' if dirty else ''})"
 
 
 @dataclass(frozen=True)
@@ -563,205 +504,6 @@ def run_trial(
     )
 
 
-# -------------------------------------------------------------------------- store
-_COLUMN_TYPES = {
-    "cell": "TEXT NOT NULL",
-    "mission_seed": "INTEGER NOT NULL",
-    "algorithm": "TEXT NOT NULL",
-    "code_version": "TEXT NOT NULL",
-}
-
-
-def _schema() -> str:
-    columns = []
-    for name in _TRIAL_FIELDS:
-        if name in _COLUMN_TYPES:
-            kind = _COLUMN_TYPES[name]
-        elif name in _INT_FIELDS or name in _BOOL_FIELDS:
-            kind = "INTEGER"
-        elif name in ("optimum_status",):
-            kind = "TEXT"
-        else:
-            kind = "REAL"
-        columns.append(f"  {name} {kind}")
-    columns.append("  PRIMARY KEY (cell, mission_seed, algorithm, code_version)")
-    return "CREATE TABLE IF NOT EXISTS trials (\n" + ",\n".join(columns) + "\n)"
-
-
-class ResultStore:
-    """The trials of sweeps, in one SQLite file (WAL mode, one commit per trial).
-
-    Parameters
-    ----------
-    path : str or path-like
-        Created when missing.  An existing file that is not an SQLite database, or a
-        database without cfopt's tables and not empty, is refused
-        (:class:`cfopt.MissionError`): it is never modified.
-
-    Notes
-    -----
-    The primary key is ``(cell, mission_seed, algorithm, code_version)`` and trials are
-    inserted with ``INSERT OR IGNORE``: adding a trial twice keeps the first.  Several
-    processes may read at once; a sweep writes from its parent process only.
-    Use as a context manager, or call :meth:`close`.
-    """
-
-    def __init__(self, path: str | os.PathLike[str]) -> None:
-        self.path = Path(path)
-        name = os.fspath(path)
-        if self.path.is_dir():
-            raise MissionError(f"{name}: is a directory, not a result store")
-        if self.path.exists() and self.path.stat().st_size > 0:
-            with self.path.open("rb") as handle:
-                if handle.read(len(_SQLITE_MAGIC)) != _SQLITE_MAGIC:
-                    raise MissionError(
-                        f"{name}: not a cfopt result store (not an SQLite file); "
-                        "it was left untouched"
-                    )
-        try:
-            self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
-        except sqlite3.Error as exc:
-            raise MissionError(f"{name}: cannot open the result store ({exc})") from None
-        try:
-            self._db.execute("PRAGMA busy_timeout = 60000")
-            tables = {
-                row[0]
-                for row in self._db.execute("SELECT name FROM sqlite_master WHERE type='table'")
-            }
-            if tables and "trials" not in tables:
-                raise MissionError(
-                    f"{name}: an SQLite database of something else (tables: "
-                    f"{', '.join(sorted(tables))}); it was left untouched"
-                )
-            self._db.execute("PRAGMA journal_mode = WAL")
-            self._db.execute("PRAGMA synchronous = FULL")
-            with self._transaction():
-                self._db.execute(
-                    "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT)"
-                )
-                self._db.execute(_schema())
-                self._db.execute(
-                    "CREATE TABLE IF NOT EXISTS sweeps (id INTEGER PRIMARY KEY AUTOINCREMENT,"
-                    " started REAL, code_version TEXT, spec TEXT)"
-                )
-                self._db.execute(
-                    "INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (_SCHEMA_VERSION,)
-                )
-            (version,) = self._db.execute(
-                "SELECT value FROM meta WHERE key = 'schema_version'"
-            ).fetchone()
-        except sqlite3.DatabaseError as exc:
-            self._db.close()
-            raise MissionError(f"{name}: not a usable result store ({exc})") from None
-        except BaseException:
-            self._db.close()
-            raise
-        if version != _SCHEMA_VERSION:
-            self._db.close()
-            raise MissionError(
-                f"{name}: result store schema {version}, this cfopt reads {_SCHEMA_VERSION}"
-            )
-
-    # -------------------------------------------------------------- plumbing
-    def _transaction(self) -> Any:
-        db = self._db
-
-        class _Tx:
-            def __enter__(self) -> None:
-                db.execute("BEGIN IMMEDIATE")
-
-            def __exit__(self, kind: Any, *rest: Any) -> None:
-                db.execute("COMMIT" if kind is None else "ROLLBACK")
-
-        return _Tx()
-
-    def close(self) -> None:
-        """Close the database (committed trials are on disk already)."""
-        self._db.close()
-
-    def __enter__(self) -> ResultStore:
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
-
-    # ---------------------------------------------------------------- writes
-    def add(self, trial: Trial) -> bool:
-        """Insert and commit one trial; ``False`` when its key was already stored."""
-        values = [getattr(trial, name) for name in _TRIAL_FIELDS]
-        values = [int(v) if isinstance(v, bool) else v for v in values]
-        placeholders = ", ".join("?" * len(values))
-        with self._transaction():
-            cursor = self._db.execute(
-                f"INSERT OR IGNORE INTO trials ({', '.join(_TRIAL_FIELDS)}) "
-                f"VALUES ({placeholders})",
-                values,
-            )
-        return cursor.rowcount == 1
-
-    def record_sweep(self, sweep: Sweep, version: str) -> None:
-        """Remember that ``sweep`` was started with ``version`` (provenance for reports)."""
-        with self._transaction():
-            self._db.execute(
-                "INSERT INTO sweeps (started, code_version, spec) VALUES (?, ?, ?)",
-                (time.time(), version, json.dumps(sweep.to_dict())),
-            )
-
-    # ----------------------------------------------------------------- reads
-    def done(self, version: str) -> set[tuple[str, int, str]]:
-        """``(cell, mission_seed, algorithm)`` of the trials stored for ``version``."""
-        rows = self._db.execute(
-            "SELECT cell, mission_seed, algorithm FROM trials WHERE code_version = ?",
-            (version,),
-        )
-        return {(c, int(s), a) for c, s, a in rows}
-
-    def optima(self, version: str) -> dict[tuple[str, int], tuple[str, float, float]]:
-        """``(cell, mission_seed) -> (status, utility, bound)`` of the stored exact solves."""
-        rows = self._db.execute(
-            "SELECT cell, mission_seed, optimum_status, optimum, optimum_bound FROM trials "
-            "WHERE code_version = ? AND algorithm = ?",
-            (version, EXACT),
-        )
-        return {(c, int(s)): (st, float(u), float(b)) for c, s, st, u, b in rows}
-
-    def code_versions(self) -> list[str]:
-        """Stored code versions, the one with the most recent trial first."""
-        rows = self._db.execute(
-            "SELECT code_version FROM trials GROUP BY code_version ORDER BY MAX(finished) DESC"
-        )
-        return [r[0] for r in rows]
-
-    def trials(self, version: str | None = None) -> list[Trial]:
-        """Stored trials (of ``version``, or all), in a stable order."""
-        query = f"SELECT {', '.join(_TRIAL_FIELDS)} FROM trials"
-        args: tuple[Any, ...] = ()
-        if version is not None:
-            query += " WHERE code_version = ?"
-            args = (version,)
-        query += (
-            " ORDER BY robots, percent_tasks, service_types, services_per_robot, load,"
-            " base_seed, mission_index, algorithm, code_version"
-        )
-        out = []
-        for row in self._db.execute(query, args):
-            values = dict(zip(_TRIAL_FIELDS, row, strict=True))
-            for name in _BOOL_FIELDS:
-                if values[name] is not None:
-                    values[name] = bool(values[name])
-            out.append(Trial(**values))
-        return out
-
-    def count(self) -> int:
-        """Number of stored trials (all code versions)."""
-        return int(self._db.execute("SELECT COUNT(*) FROM trials").fetchone()[0])
-
-    def sweeps(self) -> list[dict[str, Any]]:
-        """The sweeps started on this store: ``started``, ``code_version``, ``spec``."""
-        rows = self._db.execute("SELECT started, code_version, spec FROM sweeps ORDER BY id")
-        return [{"started": s, "code_version": v, "spec": json.loads(p)} for s, v, p in rows]
-
-
 # -------------------------------------------------------------------------- sweeps
 @dataclass(frozen=True)
 class Sweep:
@@ -795,7 +537,7 @@ class Sweep:
         for name, low in (("missions", 1), ("base_seed", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise MissionError(f"{name}: must be a whole number >= {low}, got {value!r}")
+                raise parameter_error(name, f"must be a whole number >= {low}, got {value!r}")
         from heuristics.registry import algorithm_names, get_algorithm
 
         names = algorithm_names() if self.algorithms is None else list(self.algorithms)
@@ -809,7 +551,13 @@ class Sweep:
         if t is not None and (
             isinstance(t, bool) or not isinstance(t, int | float) or not t > 0 or t == math.inf
         ):
-            raise MissionError(f"time_limit: must be a number of seconds > 0 or None, got {t!r}")
+            raise parameter_error(
+                "time_limit", f"must be a number of seconds > 0 or None, got {describe(t)}"
+            )
+        trials = f"{self.size} trials"
+        require_memory(
+            _BYTES_PER_TRIAL * self.size, f"missions: {trials}", cli=f"--missions: {trials}"
+        )
 
     @property
     def heuristics(self) -> tuple[str, ...]:
@@ -855,34 +603,28 @@ class SweepOutcome:
         return not self.failures and self.completed + self.skipped == self.total
 
 
-class _InlineExecutor(cf.Executor):
-    """Runs each call at submission, in the calling process (``workers=1``)."""
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> cf.Future:
-        future: cf.Future = cf.Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:
-            if not isinstance(exc, Exception):
-                raise
-            future.set_exception(exc)
-        return future
-
-
-def _default_workers() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-
-
-def make_executor(workers: int | None) -> cf.Executor:
-    """A process pool of ``workers`` processes (default: the usable CPUs); in-process for 1."""
-    n = _default_workers() if workers is None else workers
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise MissionError(f"workers: must be a whole number >= 1, got {workers!r}")
-    return _InlineExecutor() if n == 1 else cf.ProcessPoolExecutor(max_workers=n)
-
-
 def _format_failure(exc: BaseException) -> str:
     return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)).rstrip()
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by SIGINT or SIGTERM; what it stored is kept.
+
+    ``completed`` trials were computed and committed by this sweep before it stopped;
+    the next run of the same sweep resumes after them.
+    """
+
+    def __init__(
+        self, store: str, completed: int, remaining: int, signal_name: str, extra: str = ""
+    ) -> None:
+        super().__init__(f"{signal_name}: {store}")
+        self.store, self.completed, self.remaining = store, completed, remaining
+        self.signal_name = signal_name
+        #: What else was kept, in words (the audit: "5 claim verdicts").
+        self.extra = extra
+
+
+ExtraJob = tuple[Callable[..., Any], tuple[Any, ...], dict[str, Any]]
 
 
 def run_sweep(
@@ -891,11 +633,12 @@ def run_sweep(
     *,
     executor: cf.Executor | None = None,
     workers: int | None = None,
-    progress: bool = True,
+    progress: bool | Progress = True,
     version: str | None = None,
     max_pending: int | None = None,
-    extra_jobs: Iterable[tuple[Callable[..., Any], tuple[Any, ...], dict[str, Any]]] = (),
+    extra_jobs: Iterable[ExtraJob] = (),
     on_extra: Callable[[int, cf.Future], None] | None = None,
+    lock: bool = True,
 ) -> SweepOutcome:
     """Run every trial of ``sweep`` that ``store`` does not hold yet; store each at once.
 
@@ -903,15 +646,16 @@ def run_sweep(
     ----------
     sweep : Sweep
     store : path
-        The SQLite result store (:class:`ResultStore`), created when missing.
+        The SQLite result store (:class:`ResultStore`), created when missing (its folder
+        must exist).
     executor : concurrent.futures.Executor, optional
         Where trials run, e.g. ``dask.distributed.Client(...).get_executor()``.  It is
-        not shut down.  Default: :func:`make_executor` with ``workers``, shut down at the
-        end.
+        not shut down.  Default: :func:`make_executor` with ``workers`` (processes that
+        die with this one), shut down at the end.
     workers : int, optional
         Processes of the default executor (default: usable CPUs; 1 runs in this process).
-    progress : bool, default True
-        A tqdm progress bar on stderr.
+    progress : bool or Progress, default True
+        ``True``: a bar on a terminal, one line per stage otherwise; ``False``: silent.
     version : str, optional
         Code version of the trials (default: :func:`code_version`).
     max_pending : int, optional
@@ -920,11 +664,22 @@ def run_sweep(
     extra_jobs, on_extra
         Further calls ``(fn, args, kwargs)`` to run on the same executor alongside the
         trials (the audit's claims checks); ``on_extra(index, future)`` receives each
-        finished one.
+        finished one, in this process.
+    lock : bool, default True
+        Hold the store for this sweep (:func:`cfopt.store.store_lock`): a second sweep
+        on the same store is refused with :class:`cfopt.store.StoreBusy` naming this
+        one.  ``False`` when the caller holds the lock already.
 
     Returns
     -------
     SweepOutcome
+
+    Raises
+    ------
+    SweepInterrupted
+        On SIGINT (Ctrl-C, ``KeyboardInterrupt``): pending trials are cancelled, the
+        default executor's workers are stopped at once, the trials stored so far are
+        kept, and the exception says how many.
 
     Notes
     -----
@@ -933,135 +688,168 @@ def run_sweep(
     reused).  Workers compute trials and return them; only this process writes, one
     committed ``INSERT OR IGNORE`` per trial.  A trial that raises is reported in
     :attr:`SweepOutcome.failures` (with its traceback) and not stored; the sweep goes on.
-    On ``KeyboardInterrupt`` pending trials are cancelled and the stored ones kept.
     """
-    started = time.perf_counter()
     version = version or code_version()
-    own = executor is None
-    pool = make_executor(workers) if own else executor
-    if max_pending is None:
-        max_pending = 4 * (workers or _default_workers()) if own else 64
-    failures: list[tuple[str, int, str, str]] = []
-    completed = skipped = 0
-    try:
-        with ResultStore(store) as db:
-            db.record_sweep(sweep, version)
-            done = db.done(version)
-            optima = db.optima(version)
-            todo_missions: deque[tuple[GridCell, int]] = deque()
-            to_run = 0
-            for cell, index in itertools.product(sweep.cells, range(sweep.missions)):
-                seed = cell.mission_seed(index, sweep.base_seed)
-                missing = [a for a in sweep.algorithms or () if (cell.label, seed, a) not in done]
-                skipped += len(sweep.algorithms or ()) - len(missing)
-                if missing:
-                    todo_missions.append((cell, index))
-                    to_run += len(missing)
-            bar = _progress_bar(to_run, progress)
-            ready: deque[tuple[GridCell, int, str, tuple[str, float, float] | None]] = deque()
-            pending: dict[cf.Future, Any] = {}
-            extras = list(extra_jobs)
-            for number, (fn, args, kwargs) in enumerate(extras):
-                pending[pool.submit(fn, *args, **kwargs)] = ("extra", number)
-
-            def submit(cell: GridCell, index: int, algorithm: str, best: Any) -> None:
-                future = pool.submit(
-                    run_trial,
-                    cell,
-                    index,
-                    algorithm,
-                    base_seed=sweep.base_seed,
-                    optimum=best,
-                    time_limit=sweep.time_limit,
-                    version=version,
-                )
-                pending[future] = ("trial", cell, index, algorithm)
-
-            def queue_heuristics(cell: GridCell, index: int, best: Any) -> None:
-                seed = cell.mission_seed(index, sweep.base_seed)
-                for algorithm in sweep.heuristics:
-                    if (cell.label, seed, algorithm) not in done:
-                        ready.append((cell, index, algorithm, best))
-
-            while True:
-                while len(pending) < max_pending and (ready or todo_missions):
-                    if ready:
-                        submit(*ready.popleft())
-                        continue
-                    cell, index = todo_missions.popleft()
-                    seed = cell.mission_seed(index, sweep.base_seed)
-                    if (cell.label, seed, EXACT) in done:
-                        queue_heuristics(cell, index, optima[(cell.label, seed)])
-                    else:
-                        submit(cell, index, EXACT, None)
-                if not pending:
-                    break
-                finished, _ = cf.wait(list(pending), return_when=cf.FIRST_COMPLETED)
-                for future in finished:
-                    what = pending.pop(future)
-                    if what[0] == "extra":
-                        if on_extra is not None:
-                            on_extra(what[1], future)
-                        continue
-                    _, cell, index, algorithm = what
-                    seed = cell.mission_seed(index, sweep.base_seed)
-                    exc = future.exception()
-                    if exc is not None:
-                        failures.append((cell.label, seed, algorithm, _format_failure(exc)))
-                        bar.update(1)
-                        if algorithm == EXACT:  # no optimum: the mission's heuristics wait
-                            for name in sweep.heuristics:
-                                if (cell.label, seed, name) not in done:
-                                    failures.append(
-                                        (cell.label, seed, name, "not run: the exact solve failed")
-                                    )
-                                    bar.update(1)
-                        continue
-                    trial: Trial = future.result()
-                    db.add(trial)
-                    done.add((cell.label, seed, algorithm))
-                    completed += 1
-                    bar.update(1)
-                    if failures:
-                        bar.set_postfix(failed=len(failures))
-                    if algorithm == EXACT:
-                        queue_heuristics(
-                            cell,
-                            index,
-                            (trial.optimum_status, trial.optimum, trial.optimum_bound),
-                        )
-            bar.close()
-    except BaseException:
+    guard = store_lock(store) if lock else contextlib.nullcontext()
+    with guard, ResultStore(store) as db:
+        own = executor is None
+        pool = make_executor(workers) if own else executor
+        limit = max_pending or (4 * (workers or default_workers()) if own else 64)
+        run = _SweepRun(sweep, db, pool, version, Progress.coerce(progress), limit)
+        try:
+            run.start(list(extra_jobs), on_extra)
+            run.loop()
+        except KeyboardInterrupt as exc:
+            if own:
+                stop_executor(pool)
+            run.close_stage("interrupted")
+            raise SweepInterrupted(
+                os.fspath(store), run.completed, run.remaining, _signal_name(exc)
+            ) from None
+        except BaseException:
+            if own:
+                stop_executor(pool)
+            raise
         if own:
-            pool.shutdown(wait=False, cancel_futures=True)
-        raise
-    if own:
-        pool.shutdown(wait=True)
+            pool.shutdown(wait=True)
+        run.close_stage(run.summary())
     return SweepOutcome(
         store=os.fspath(store),
         code_version=version,
         total=sweep.size,
-        completed=completed,
-        skipped=skipped,
-        failures=tuple(failures),
-        seconds=time.perf_counter() - started,
+        completed=run.completed,
+        skipped=run.skipped,
+        failures=tuple(run.failures),
+        seconds=time.perf_counter() - run.started,
     )
 
 
-class _NoBar:
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def set_postfix(self, **kwargs: Any) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
+def _signal_name(exc: BaseException) -> str:
+    return getattr(exc, "signal_name", "SIGINT")
 
 
-def _progress_bar(total: int, enabled: bool) -> Any:
-    if not enabled:
-        return _NoBar()
-    from tqdm import tqdm
+class _SweepRun:
+    """The state of one :func:`run_sweep` call: what is queued, pending and done."""
 
-    return tqdm(total=total, unit="trial", file=sys.stderr, dynamic_ncols=True, smoothing=0.05)
+    def __init__(
+        self,
+        sweep: Sweep,
+        db: ResultStore,
+        pool: cf.Executor,
+        version: str,
+        progress: Progress,
+        max_pending: int,
+    ) -> None:
+        self.sweep, self.db, self.pool, self.version = sweep, db, pool, version
+        self.progress, self.max_pending = progress, max_pending
+        self.started = time.perf_counter()
+        self.failures: list[tuple[str, int, str, str]] = []
+        self.completed = self.skipped = self.to_run = 0
+        self.ready: deque[tuple[GridCell, int, str, tuple[str, float, float] | None]] = deque()
+        self.todo: deque[tuple[GridCell, int]] = deque()
+        self.pending: dict[cf.Future, Any] = {}
+        self.on_extra: Callable[[int, cf.Future], None] | None = None
+        self.stage: Any = None
+
+    def close_stage(self, summary: str) -> None:
+        if self.stage is not None:
+            self.stage.close(summary)
+
+    @property
+    def remaining(self) -> int:
+        return self.to_run - self.completed - len(self.failures)
+
+    def start(self, extras: list[ExtraJob], on_extra: Any) -> None:
+        sweep, db = self.sweep, self.db
+        db.record_sweep(sweep, self.version, describe_version())
+        self.done = db.done(self.version)
+        self.optima = db.optima(self.version)
+        for cell, index in itertools.product(sweep.cells, range(sweep.missions)):
+            seed = cell.mission_seed(index, sweep.base_seed)
+            missing = [a for a in sweep.algorithms or () if (cell.label, seed, a) not in self.done]
+            self.skipped += len(sweep.algorithms or ()) - len(missing)
+            if missing:
+                self.todo.append((cell, index))
+                self.to_run += len(missing)
+        stored = f", {self.skipped} already stored" if self.skipped else ""
+        self.stage = self.progress.stage(
+            "trials", self.to_run, "trial", f"{self.to_run} to run{stored}"
+        )
+        self.on_extra = on_extra
+        for number, (fn, args, kwargs) in enumerate(extras):
+            self.pending[self.pool.submit(fn, *args, **kwargs)] = ("extra", number)
+
+    def summary(self) -> str:
+        failed = f", {len(self.failures)} failed" if self.failures else ""
+        return f"{self.completed} run, {self.skipped} already stored{failed}"
+
+    def submit(self, cell: GridCell, index: int, algorithm: str, best: Any) -> None:
+        sweep = self.sweep
+        future = self.pool.submit(
+            run_trial,
+            cell,
+            index,
+            algorithm,
+            base_seed=sweep.base_seed,
+            optimum=best,
+            time_limit=sweep.time_limit,
+            version=self.version,
+        )
+        self.pending[future] = ("trial", cell, index, algorithm)
+
+    def queue_heuristics(self, cell: GridCell, index: int, best: Any) -> None:
+        seed = cell.mission_seed(index, self.sweep.base_seed)
+        for algorithm in self.sweep.heuristics:
+            if (cell.label, seed, algorithm) not in self.done:
+                self.ready.append((cell, index, algorithm, best))
+
+    def fill(self) -> None:
+        while len(self.pending) < self.max_pending and (self.ready or self.todo):
+            if self.ready:
+                self.submit(*self.ready.popleft())
+                continue
+            cell, index = self.todo.popleft()
+            seed = cell.mission_seed(index, self.sweep.base_seed)
+            if (cell.label, seed, EXACT) in self.done:
+                self.queue_heuristics(cell, index, self.optima[(cell.label, seed)])
+            else:
+                self.submit(cell, index, EXACT, None)
+
+    def loop(self) -> None:
+        while True:
+            self.fill()
+            if not self.pending:
+                return
+            finished, _ = cf.wait(list(self.pending), return_when=cf.FIRST_COMPLETED)
+            for future in finished:
+                self.collect(future, self.pending.pop(future))
+
+    def collect(self, future: cf.Future, what: Any) -> None:
+        if what[0] == "extra":
+            if self.on_extra is not None:
+                self.on_extra(what[1], future)
+            return
+        _, cell, index, algorithm = what
+        seed = cell.mission_seed(index, self.sweep.base_seed)
+        exc = future.exception()
+        if exc is not None:
+            self.fail(cell.label, seed, algorithm, _format_failure(exc))
+            if algorithm == EXACT:  # no optimum: the mission's heuristics cannot be scored
+                for name in self.sweep.heuristics:
+                    if (cell.label, seed, name) not in self.done:
+                        self.fail(cell.label, seed, name, "not run: the exact solve failed")
+            return
+        trial: Trial = future.result()
+        self.db.add(trial)
+        self.done.add((cell.label, seed, algorithm))
+        self.completed += 1
+        self.stage.update(1)
+        if algorithm == EXACT:
+            self.queue_heuristics(
+                cell, index, (trial.optimum_status, trial.optimum, trial.optimum_bound)
+            )
+
+    def fail(self, cell: str, seed: int, algorithm: str, trace: str) -> None:
+        self.failures.append((cell, seed, algorithm, trace))
+        self.stage.update(1)
+        self.stage.set_postfix(failed=len(self.failures))

@@ -1,6 +1,6 @@
 """The seed's instance family: random missions that are achievable by construction.
 
-The seed paper (§5, "Centralized Evaluation") draws collectives of ``n`` robots with
+The seed paper (its §5, "Centralized Evaluation") draws collectives of ``n`` robots with
 ``S`` service types and ``k`` services per robot, ``m`` tasks (1, 10 or 50 percent of
 ``n``), utilities uniform in 1..50, and missions that "required exactly the number of
 robots in the collective".  :func:`generate_mission` builds that family (and over- and
@@ -18,9 +18,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from cfopt._limits import require_memory
 from cfopt.assignment import Assignment
-from cfopt.errors import MissionError
-from cfopt.mission import Mission
+from cfopt.errors import describe, parameter_error, plural
+from cfopt.mission import MAX_COUNT, Mission
 
 __all__ = [
     "PAPER_MISSIONS_PER_CELL",
@@ -131,11 +132,7 @@ def generate_with_witness(
     )
     m = task_count(n, p)
     total = math.floor(load * n + 0.5)
-    if total < m:
-        raise MissionError(
-            f"load: {load} asks for {total} robots in all, "
-            f"but each of the {m} tasks needs at least one"
-        )
+    _check_seed(seed)
     if seed is None:  # draw a fresh seed, but record it so the mission can be replayed
         seed = int(np.random.default_rng().integers(2**32))
     rng = np.random.default_rng(seed)
@@ -185,14 +182,45 @@ def _oversubscribe(
 
 
 def _whole(value: Any, name: str, low: int, high: float = math.inf) -> int:
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)  # a grid file's 100.0 (or 1e22, refused below) is a whole number
     if (
         isinstance(value, bool)
         or not isinstance(value, numbers.Integral)
         or not low <= value <= high
     ):
         bound = f">= {low}" if high == math.inf else f"between {low} and {high}"
-        raise MissionError(f"{name}: must be a whole number {bound}, got {value!r}")
+        raise parameter_error(name, f"must be a whole number {bound}, got {describe(value)}")
     return int(value)
+
+
+#: Bytes the generator and the mission it returns take per robot and service type, per
+#: robot, per task and service type, and per unit of over-subscription (a measured
+#: upper bound: random keys, their argsort, the capability matrix, the JSON text).
+_BYTES_PER_ROBOT_SERVICE, _BYTES_PER_ROBOT = 24, 600
+_BYTES_PER_TASK_SERVICE, _BYTES_PER_EXTRA_UNIT = 40, 16
+
+
+def _check_size(n: int, m: int, s: int, total: int) -> None:
+    """Refuse, before drawing anything, a mission that cannot fit in memory."""
+    needed = (
+        _BYTES_PER_ROBOT_SERVICE * n * s + _BYTES_PER_ROBOT * n + _BYTES_PER_TASK_SERVICE * m * s
+    )
+    what = f"{_count_text(n)} robots, {_count_text(m)} tasks and {_count_text(s)} service types"
+    require_memory(needed, f"robots: {what}", cli=f"--robots: {what}")
+    if total > MAX_COUNT:
+        raise parameter_error(
+            "load",
+            f"asks for {_count_text(total)} robots' worth of requirements in all; at most "
+            f"{MAX_COUNT} (2**31 - 1)",
+        )
+    extra = max(total - n, 0)
+    what = f"{_count_text(extra)} units of over-subscription"
+    require_memory(_BYTES_PER_EXTRA_UNIT * extra, f"load: {what}", cli=f"--load: {what}")
+
+
+def _count_text(count: int) -> str:
+    return str(count) if count < 10**15 else f"{float(count):.3g}"
 
 
 def _check_parameters(
@@ -207,10 +235,30 @@ def _check_parameters(
             or not isinstance(value, numbers.Real)
             or not (math.isfinite(value) and value > 0)
         ):
-            raise MissionError(f"{name}: must be a finite number > 0, got {value!r}")
+            raise parameter_error(name, f"must be a finite number > 0, got {describe(value)}")
     if percent_tasks > 100:
-        raise MissionError(f"percent_tasks: must be at most 100, got {percent_tasks!r}")
+        raise parameter_error(
+            "percent_tasks", f"must be at most 100, got {describe(percent_tasks)}"
+        )
+    m = task_count(n, float(percent_tasks))
+    total = math.floor(float(load) * n + 0.5)
+    if total < m:
+        raise parameter_error(
+            "load",
+            f"{load:g} asks for {plural(total, 'robot')} in all, "
+            f"but each of the {m} tasks needs at least one",
+        )
+    _check_size(n, m, s, total)
     return n, float(percent_tasks), s, k, float(load)
+
+
+def _check_seed(seed: Any) -> None:
+    if seed is None or isinstance(seed, np.random.Generator):
+        return
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise parameter_error(
+            "seed", f"must be None, a whole number >= 0 or a numpy Generator, got {describe(seed)}"
+        )
 
 
 def _seed_label(seed: SeedLike) -> str:

@@ -3,13 +3,14 @@
 A :class:`Mission` is the seed's services model (ST-MR-IA): robot ``i`` can perform
 service ``s`` when ``capabilities[i, s]``; task ``j`` needs ``requirements[j, s]`` robots
 performing ``s`` and earns ``utilities[j]`` only when all of its needs are met.
-The file format is ``cfopt.mission/1`` (see the README and ``interface.md`` §1).
+The file format is ``cfopt.mission/1`` (see :meth:`Mission.from_dict` and the README).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -21,14 +22,16 @@ import numpy.typing as npt
 
 from cfopt._jsonio import (
     Source,
+    check_free_json,
     check_keys,
+    check_text,
     expect_list,
     expect_object,
     layout_json,
     read_json,
     write_text,
 )
-from cfopt.errors import MissionError, describe, key_path
+from cfopt.errors import MissionError, describe, is_unicode, key_path
 
 __all__ = ["MAX_COUNT", "MISSION_FORMAT", "Mission", "MissionError"]
 
@@ -103,10 +106,14 @@ class Mission:
         utilities = _frozen_array(self.utilities, np.float64, (m,), "utilities")
         _check_requirements(requirements, task_ids, services)
         _check_utilities(utilities, task_ids)
-        if self.name is not None and not isinstance(self.name, str):
-            raise MissionError(f"name: must be a string, got {describe(self.name)}")
+        if self.name is not None and (not isinstance(self.name, str) or not is_unicode(self.name)):
+            raise MissionError(
+                f"name: must be a string of valid Unicode, got {describe(self.name)}"
+            )
         if self.metadata is not None and not isinstance(self.metadata, Mapping):
             raise MissionError(f"metadata: must be an object, got {describe(self.metadata)}")
+        if self.metadata is not None:
+            check_free_json(self.metadata, "metadata")
         for attr, value in (
             ("services", services),
             ("robot_ids", robot_ids),
@@ -233,9 +240,20 @@ class Mission:
     def from_dict(cls, data: Any) -> Mission:
         """Validate a ``cfopt.mission/1`` object (as parsed from JSON) and build the mission.
 
-        Every rule of the format is checked; the first broken one raises
-        :class:`MissionError` naming the place, e.g.
-        ``tasks[3].requires.lift: must be a whole number >= 1, got 2.5``.
+        The rules: ``format`` is optional and, when present, ``"cfopt.mission/1"``;
+        ``services`` is a non-empty list of unique non-empty names; ``robots`` a list of
+        objects with a unique non-empty ``id`` and a list ``services`` of declared,
+        distinct names (may be empty); ``tasks`` a list of objects with a unique
+        non-empty ``id`` (a namespace apart from the robots'), a finite ``utility`` >= 0
+        (booleans are not numbers; all utilities together must add up to a finite
+        float) and ``requires``, a non-empty map from declared services to whole numbers
+        between 1 and 2**31 - 1 (``2.0`` is read as 2).  Ids and names are valid Unicode
+        text.  ``name`` is an optional string and ``metadata`` an optional object of
+        plain JSON data (finite numbers, at most 100 levels deep), kept as is.  Unknown
+        keys are errors (they are almost always typos), except inside ``metadata``.
+
+        Every rule is checked; the first broken one raises :class:`MissionError` naming
+        the place, e.g. ``tasks[3].requires.lift: must be a whole number >= 1, got 2.5``.
         """
         return _parse_mission(data)
 
@@ -249,7 +267,7 @@ class Mission:
         try:
             return _parse_mission(value)
         except MissionError as exc:
-            raise MissionError(f"{name}: {exc}") from None
+            raise exc.prefixed(name) from None
 
     # --------------------------------------------------------------------- writing
     def to_dict(self) -> dict[str, Any]:
@@ -329,8 +347,7 @@ def _id_tuple(values: Sequence[str], place: str, what: str) -> tuple[str, ...]:
     out = tuple(values)
     seen: dict[str, int] = {}
     for index, value in enumerate(out):
-        if not isinstance(value, str) or not value:
-            raise MissionError(f"{place}[{index}]: {what} must be a non-empty string")
+        check_text(value, f"{place}[{index}]", f"a non-empty string ({what})")
         if value in seen:
             raise MissionError(
                 f"{place}[{index}]: duplicate {what} {describe(value)} "
@@ -386,6 +403,15 @@ def _check_utilities(utilities: npt.NDArray[np.float64], task_ids: tuple[str, ..
         raise MissionError(
             f"tasks[{j}].utility: must be a finite number >= 0, got {describe(utilities[j].item())}"
         )
+    try:
+        total = math.fsum(utilities.tolist())
+    except OverflowError:
+        total = math.inf
+    if not math.isfinite(total):
+        raise MissionError(
+            "tasks: the utilities add up to more than the largest floating-point number "
+            f"({sys.float_info.max:.6g}); scale them down"
+        )
 
 
 def _deep_copy_json(value: Any) -> Any:
@@ -418,6 +444,8 @@ def _parse_mission(data: Any) -> Mission:
         raise MissionError(f"name: must be a string, got {describe(name)}")
     if "name" in top and name is None:
         raise MissionError("name: must be a string, got null")
+    if name is not None and not is_unicode(name):
+        raise MissionError(f"name: must be valid Unicode text, got {describe(name)}")
     services = _parse_services(top["services"])
     index = {s: k for k, s in enumerate(services)}
     robot_ids, capabilities = _parse_robots(top["robots"], index)
@@ -442,16 +470,12 @@ def _parse_services(value: Any) -> tuple[str, ...]:
     if not items:
         raise MissionError("services: must list at least one service")
     for k, item in enumerate(items):
-        if not isinstance(item, str) or not item:
-            raise MissionError(f"services[{k}]: must be a non-empty string, got {describe(item)}")
+        check_text(item, f"services[{k}]")
     return _id_tuple(items, "services", "service name")
 
 
 def _parse_id(obj: dict[str, Any], place: str) -> str:
-    value = obj["id"]
-    if not isinstance(value, str) or not value:
-        raise MissionError(f"{place}.id: must be a non-empty string, got {describe(value)}")
-    return value
+    return check_text(obj["id"], f"{place}.id")
 
 
 def _check_unique(value: str, place: str, seen: dict[str, str], what: str) -> None:
@@ -495,11 +519,9 @@ def _parse_robots(value: Any, index: Mapping[str, int]) -> tuple[list[str], npt.
 
 
 def _parse_count(value: Any, place: str) -> int:
-    whole = (
-        not isinstance(value, bool)
-        and isinstance(value, int | float)
-        and math.isfinite(value)
-        and float(value).is_integer()
+    whole = not isinstance(value, bool) and (
+        isinstance(value, int)
+        or (isinstance(value, float) and math.isfinite(value) and value.is_integer())
     )
     if not whole or value < 1:
         raise MissionError(f"{place}: must be a whole number >= 1, got {describe(value)}")

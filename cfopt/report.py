@@ -1,7 +1,7 @@
 """Optimal-gap reports: the seed's tables, statistics and box plots, from a result store.
 
 From the trials of a sweep (:mod:`cfopt.experiments`) this module builds what the seed
-paper's evaluation shows (``seed/grape-s-paper.tex`` §5, Tables 3-5 and Figures 1-4):
+paper's evaluation shows (its centralized evaluation, Tables 3-5 and Figures 1-4):
 
 * tables of ``median (min, max)`` per grid cell and algorithm for percent of optimum,
   percent of total utility, runtime and communication (:func:`cell_table`);
@@ -28,22 +28,27 @@ Examples
 from __future__ import annotations
 
 import base64
+import contextlib
 import csv
 import html
 import math
 import os
+import shutil
+import tempfile
+import textwrap
 import time
 import warnings
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cfopt.errors import MissionError
-from cfopt.experiments import EXACT, ResultStore, Trial
+from cfopt._jsonio import check_folder
+from cfopt.errors import MissionError, plural
+from cfopt.store import EXACT, ResultStore, Trial
 
 __all__ = [
     "METRICS",
@@ -149,9 +154,7 @@ def load_trials(
 
     Raises :class:`cfopt.MissionError` for a missing or empty store.
     """
-    if not Path(store).is_file():
-        raise MissionError(f"{os.fspath(store)}: no such result store")
-    with ResultStore(store) as db:
+    with ResultStore(store, create=False) as db:
         versions = db.code_versions()
         if not versions:
             raise MissionError(f"{os.fspath(store)}: the result store holds no trials yet")
@@ -163,6 +166,16 @@ def load_trials(
                 f"(stored: {', '.join(versions)})"
             )
         return db.trials(version), version
+
+
+def _code_description(store: str, version: str) -> str:
+    """``cfopt 0.1.0 (git 6adb985); trials keyed by code version 0.1.0+<digest>``."""
+    described = None
+    if store and Path(store).is_file():
+        with contextlib.suppress(MissionError), ResultStore(store, create=False) as db:
+            described = db.version_description(version)
+    keyed = f"trials keyed by code version {version or '(unknown)'} (a digest of the sources)"
+    return f"cfopt {described}; {keyed}" if described else keyed
 
 
 # -------------------------------------------------------------------------- tables
@@ -533,12 +546,40 @@ def _figure_name(metric: str, load: float) -> str:
     return f"fig_{metric}_load{load:g}".replace(".", "_") + ".png"
 
 
+_FIGURE_METRICS = ("percent_optimum", "seconds", "megabytes")
+
+
 def _figure_names(trials: Sequence[Trial]) -> list[tuple[str, float, str]]:
-    out = []
-    for load in sorted({t.load for t in trials}):
-        for name in ("percent_optimum", "seconds", "megabytes"):
-            out.append((name, load, _figure_name(name, load)))
-    return out
+    return [
+        (name, load, _figure_name(name, load))
+        for load in sorted({t.load for t in trials})
+        for name in _FIGURE_METRICS
+    ]
+
+
+def figure_names_for(cells: Iterable[Any]) -> list[str]:
+    """The figure files a report of these grid cells' trials will have."""
+    return [
+        _figure_name(m, load) for load in sorted({c.load for c in cells}) for m in _FIGURE_METRICS
+    ]
+
+
+def _percent_axis(ax: Any, values: Sequence[float]) -> None:
+    """A percentage axis that never shows an impossible value.
+
+    Percentages of the optimum or of the total lie in [0, 100] (above 100 only when an
+    optimum was not proven, and then the data say so): the axis stops at the data's
+    maximum or 100, whichever is larger, and at 0 below; no tick lies outside.
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    lo, hi = min(values), max(values)
+    top = max(hi, 100.0)
+    pad = 0.06 * max(top - lo, 10.0)
+    bottom = max(0.0, lo - pad)
+    ticks = [t for t in MaxNLocator(nbins=6).tick_values(bottom, top) if bottom <= t <= top]
+    ax.set_ylim(bottom, top + 0.02 * (top - bottom))
+    ax.set_yticks(ticks)
 
 
 def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> list[Path]:
@@ -578,6 +619,7 @@ def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> lis
         for panel, ((s, k), ax) in enumerate(zip(comps, axes.ravel(), strict=False)):
             mine = [t for t in at_load if (t.service_types, t.services_per_robot) == (s, k)]
             xs = sorted({(t.percent_tasks, t.robots) for t in mine})
+            panel_values: list[float] = []
             for a_pos, algorithm in enumerate(algorithms):
                 data, positions = [], []
                 for x_pos, (p, n) in enumerate(xs):
@@ -591,6 +633,7 @@ def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> lis
                     )
                     if metric.log_scale:
                         vals = [max(v, 1e-6) for v in vals]
+                    panel_values += vals
                     if vals:
                         data.append(vals)
                         positions.append(x_pos + (a_pos - (len(algorithms) - 1) / 2) * width)
@@ -609,6 +652,8 @@ def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> lis
                     capprops={"color": colour},
                     flierprops={"marker": ".", "markersize": 4, "markeredgecolor": colour},
                 )
+            if metric.unit == "%" and panel_values:
+                _percent_axis(ax, panel_values)
             ax.set_xticks(range(len(xs)))
             ax.set_xticklabels([f"n={n}\n{p:g}% tasks" for p, n in xs], fontsize=8)
             ax.set_xlim(-0.6, len(xs) - 0.4)
@@ -682,13 +727,54 @@ def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 
 
 def summary_text(trials: Sequence[Trial]) -> str:
-    """The summary table as plain text (``cfopt audit`` and ``cfopt report`` print it)."""
-    text = format_table(*_summary_table(trials))
+    """The summary as plain text under 100 columns (``cfopt audit`` and ``cfopt report``).
+
+    One table per load: per algorithm the percent of optimum and of total (median, min,
+    max), how many trials reached the optimum, the median seconds and megabytes, and how
+    many final partitions are Nash / strictly pairwise / pareto pairwise stable.
+    """
+    rows = summary_rows(trials)
+    missions_at = defaultdict(set)
+    for t in trials:
+        missions_at[t.load].add((t.cell, t.mission_seed))
+    header = ["algorithm", "% of optimum", "optimal", "% of total", "seconds", "MB"]
+    header.append("Nash/strict/pareto")
+    legend = (
+        "Cells: median (min, max) over the trials; seconds and MB: median; Nash/strict/pareto: "
+        "trials whose final partition is Nash / strictly pairwise / pareto pairwise stable."
+    )
+    parts = [textwrap.fill(legend, width=100)]
+    for load in sorted(missions_at):
+        body = []
+        for r in (r for r in rows if r["load"] == load):
+            n = r["trials"]
+            star = "†" if r["unproven_optima"] else ""
+            body.append(
+                [
+                    r["algorithm"],
+                    _range_text(r["percent_optimum"]) + star,
+                    f"{r['optimal']}/{n}",
+                    _range_text(r["percent_total"]),
+                    _median_text(r["seconds"]),
+                    _median_text(r["megabytes"]),
+                    f"{r['nash_stable']}/{r['pairwise_stable']}/{r['pareto_stable']} of {n}",
+                ]
+            )
+        heading = f"{_load_label(load)}: {plural(len(missions_at[load]), 'mission')}"
+        parts.append(heading + "\n" + format_table(header, body))
     if any(not t.optimum_proven for t in trials):
-        text += (
-            "\n† some optima were not proven (ILP time limit): percentages are of the best found"
+        parts.append(
+            "† some optima were not proven (ILP time limit): percentages are of the best found"
         )
-    return text
+    return "\n\n".join(parts)
+
+
+def _range_text(d: dict[str, float] | None) -> str:
+    return "-" if d is None else f"{_fmt(d['median'])} ({_fmt(d['min'])}, {_fmt(d['max'])})"
+
+
+def _median_text(d: dict[str, float] | None) -> str:
+    return "-" if d is None else _fmt(d["median"])
 
 
 def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
@@ -736,7 +822,7 @@ def _claims_table(claims: Sequence[Any]) -> tuple[list[str], list[list[str]]]:
 
 
 def gap_report(trials: Sequence[Trial], version: str = "") -> dict[str, Any]:
-    """The ``gap_report`` object of ``cfopt audit --json`` (interface.md §3).
+    """The ``gap_report`` object of ``cfopt audit --json``.
 
     Keys: ``code_version``, ``trials``, ``missions``, ``algorithms``, ``unproven_optima``,
     ``summary`` (:func:`summary_rows`), ``cells`` (per cell and algorithm: trials and
@@ -787,7 +873,7 @@ def gap_report(trials: Sequence[Trial], version: str = "") -> dict[str, Any]:
     }
 
 
-_REPORT_FILES = (
+REPORT_FILES = (
     "report.md",
     "report.html",
     "trials.csv",
@@ -799,7 +885,7 @@ _REPORT_FILES = (
 
 def planned_files(trials: Sequence[Trial], claims: Sequence[Any] | None = None) -> list[str]:
     """Names :func:`write_report` writes into its directory for these trials."""
-    names = list(_REPORT_FILES) + [f for _, _, f in _figure_names(trials)]
+    names = list(REPORT_FILES) + [f for _, _, f in _figure_names(trials)]
     if claims is not None:
         names.append("claims.csv")
     return names
@@ -837,9 +923,12 @@ def write_report(
     trials : sequence of Trial
         Typically ``load_trials(store)[0]``.
     directory : path
-        Created when missing.  If it already holds any file this report would write,
-        nothing is written and :class:`cfopt.MissionError` is raised, unless ``force``
-        (then exactly those files are replaced; other files are left alone).
+        Created when missing (its parent folder must exist).  If it already holds any
+        file this report would write, nothing is written and :class:`cfopt.MissionError`
+        is raised, unless ``force`` (then exactly those files are replaced; other files
+        are left alone).  Every file is first written in a temporary folder inside
+        ``directory`` and moved into place only when all of them are complete, so a
+        failure (a full disk, an interruption) leaves the directory as it was.
     version : str
         The trials' code version (shown in the report).
     claims : sequence of proofs.claims.Verdict, optional
@@ -860,13 +949,81 @@ def write_report(
         raise MissionError("no trials to report")
     directory = Path(directory)
     names = planned_files(trials, claims)
+    check_folder(directory)
+    if directory.exists() and not directory.is_dir():
+        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
     if not force:
         check_free(directory, names)
-    elif directory.exists() and not directory.is_dir():
-        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
-    directory.mkdir(parents=True, exist_ok=True)
-    mode = "w" if force else "x"
-    written: list[Path] = []
+    created = not directory.exists()
+    directory.mkdir(exist_ok=True)
+    with _staging(directory, created) as stage:
+        _write_files(
+            trials, stage, version=version, claims=claims, claim_files=claim_files,
+            source=source, title=title,
+        )  # fmt: skip
+        _publish(stage, directory, names, force)
+    return Report(
+        directory=directory,
+        files=tuple(directory / n for n in names),
+        summary=summary_text(trials),
+        gap_report=gap_report(trials, version),
+    )
+
+
+@contextlib.contextmanager
+def _staging(directory: Path, created: bool) -> Iterator[Path]:
+    """A temporary folder inside ``directory``, removed at the end; on failure also
+    ``directory`` itself when this report created it."""
+    done = False
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=".cfopt-report-", dir=directory))
+    except OSError as exc:
+        raise MissionError(
+            f"{os.fspath(directory)}: cannot write ({exc.strerror or exc})"
+        ) from None
+    try:
+        yield stage
+        done = True
+    except OSError as exc:
+        raise MissionError(
+            f"{os.fspath(directory)}: cannot write the report ({exc.strerror or exc}); "
+            "nothing in it was changed"
+        ) from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        if created and not done:
+            with contextlib.suppress(OSError):
+                directory.rmdir()  # only if empty
+
+
+def _publish(stage: Path, directory: Path, names: Sequence[str], force: bool) -> None:
+    """Move the finished files into place (renames in one folder: they cannot run out of
+    space); without ``force`` a file that appeared meanwhile is not replaced."""
+    for name in names:
+        if force:
+            os.replace(stage / name, directory / name)
+            continue
+        try:
+            os.link(stage / name, directory / name)
+        except FileExistsError:
+            raise MissionError(
+                f"{os.fspath(directory / name)}: appeared while the report was written; "
+                "it was left as it is"
+            ) from None
+
+
+def _write_files(
+    trials: Sequence[Trial],
+    directory: Path,
+    *,
+    version: str,
+    claims: Sequence[Any] | None,
+    claim_files: Sequence[Path],
+    source: str,
+    title: str,
+) -> None:
+    """Every file of the report, into ``directory`` (a fresh staging folder)."""
+    mode = "x"
 
     # CSV files.
     fields = list(trials[0].to_dict())
@@ -881,13 +1038,9 @@ def write_report(
     tables = {name: cell_table(trials, name) for name in METRICS}
     for name, (header, rows) in tables.items():
         _write_csv(directory / f"table_{name}.csv", header, rows, mode)
-    written += [directory / n for n in ("trials.csv", "summary.csv", "statistics.csv")]
-    written += [directory / f"table_{n}.csv" for n in METRICS]
     if claims is not None:
         _write_csv(directory / "claims.csv", *_claims_table(claims), mode)
-        written.append(directory / "claims.csv")
-    figures = box_plots(trials, directory)
-    written += figures
+    box_plots(trials, directory)
 
     # The document, as blocks rendered twice (Markdown and HTML).
     missions = len({(t.cell, t.mission_seed) for t in trials})
@@ -896,7 +1049,7 @@ def write_report(
     facts = [
         f"{len(trials)} trials on {missions} missions in {len({t.cell for t in trials})} grid "
         f"cells; algorithms: {', '.join(_algorithms(trials))}.",
-        f"Code version {version or '(unknown)'}"
+        f"Code: {_code_description(source, version)}"
         + (f"; trials from `{source}`." if source else "."),
         f"Generated {time.strftime('%Y-%m-%d %H:%M:%S %Z')}.",
         "Every mission is solved exactly (`exact`, HiGHS); each heuristic is scored against "
@@ -956,13 +1109,6 @@ def write_report(
     for name, text in (("report.md", markdown), ("report.html", page)):
         with (directory / name).open(mode, encoding="utf-8") as handle:
             handle.write(text)
-        written.append(directory / name)
-    return Report(
-        directory=directory,
-        files=tuple(written),
-        summary=summary_text(trials),
-        gap_report=gap_report(trials, version),
-    )
 
 
 _CSS = (
@@ -1028,249 +1174,3 @@ def report_from_store(
         source=os.fspath(store),
         force=force,
     )
-
-
-# ----------------------------------------------------------------------- the audit
-#: Claims budget (missions per claim) of ``cfopt audit`` and of ``cfopt audit --quick``.
-AUDIT_BUDGET, QUICK_BUDGET = 25, 5
-#: Missions per cell of ``cfopt audit`` and of ``cfopt audit --quick``.
-AUDIT_MISSIONS, QUICK_MISSIONS = 4, 2
-#: Where the audit keeps its trials inside its directory (an interrupted audit resumes).
-AUDIT_STORE = "trials.sqlite"
-#: The audit's counterexample folder inside its directory.
-COUNTEREXAMPLES = "counterexamples"
-
-
-@dataclass(frozen=True)
-class AuditResult:
-    """What :func:`run_audit` found and wrote (frozen).
-
-    ``verdicts`` are :class:`proofs.claims.Verdict` in claim order; ``report`` is
-    ``None`` for a claims-only audit; ``outcome`` the sweep's
-    :class:`~cfopt.experiments.SweepOutcome` (``None`` for claims only);
-    ``claim_files`` the counterexample files written; ``failures`` the claims whose
-    check raised, as ``(claim id, traceback)``.
-    """
-
-    directory: Path
-    verdicts: tuple[Any, ...]
-    report: Report | None
-    outcome: Any
-    claim_files: tuple[Path, ...]
-    failures: tuple[tuple[str, str], ...] = ()
-
-    @property
-    def ok(self) -> bool:
-        """No trial and no claim check raised."""
-        return not self.failures and (self.outcome is None or not self.outcome.failures)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``cfopt audit --json`` object: ``claims`` and ``gap_report``."""
-        gap = None
-        if self.report is not None:
-            gap = dict(self.report.gap_report)
-            gap["report_directory"] = os.fspath(self.directory)
-            gap["files"] = [os.fspath(p) for p in self.report.files]
-            gap["store"] = os.fspath(self.directory / AUDIT_STORE)
-        return {
-            "claims": [v.to_dict() for v in self.verdicts],
-            "gap_report": gap,
-            "counterexample_files": [os.fspath(p) for p in self.claim_files],
-        }
-
-
-def check_claim(claim_id: str, budget: int, seed: int = 0) -> Any:
-    """One claim's verdict (``proofs.claims.audit_claims(ids=[claim_id])[0]``).
-
-    Runs in an executor's worker and returns a picklable wrapper (its counterexample as
-    JSON objects, since a :class:`cfopt.Mission` with metadata does not pickle) that
-    :func:`run_audit` turns back into the verdict.  Without hypothesis (the ``test``
-    extra), which the claims' counterexample search needs, the verdict is
-    ``inconclusive`` and says so.
-    """
-    from proofs import claims
-
-    try:
-        verdict = claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0]
-    except ModuleNotFoundError as exc:
-        if exc.name != "hypothesis":
-            raise
-        claim = claims.CLAIMS[claim_id]
-        return claims.Verdict(
-            claim_id=claim_id,
-            statement=claim.statement,
-            verdict=claims.VerdictKind.INCONCLUSIVE,
-            instances_checked=0,
-            counterexample=None,
-            seconds=0.0,
-            note="not checked: needs hypothesis (pip install 'cfopt[test]')",
-        )
-    return _Portable(verdict)
-
-
-class _Portable:
-    """A verdict that crosses process boundaries: its counterexample travels as the
-    mission and assignment JSON objects (a :class:`cfopt.Mission` with metadata does not
-    pickle) and is rebuilt by :meth:`restore`."""
-
-    def __init__(self, verdict: Any) -> None:
-        from dataclasses import replace
-
-        ce = verdict.counterexample
-        self.verdict = replace(verdict, counterexample=None)
-        self.counterexample = None if ce is None else ce.to_dict()
-
-    def restore(self) -> Any:
-        if self.counterexample is None:
-            return self.verdict
-        from dataclasses import replace
-
-        from cfopt.assignment import Assignment
-        from cfopt.mission import Mission
-        from proofs.claims import Counterexample
-
-        d = self.counterexample
-        mission = Mission.from_dict(d["mission"])
-        ce = Counterexample(
-            mission=mission,
-            assignment=Assignment.from_dict(mission, d["assignment"]),
-            algorithm=d["algorithm"],
-            detail=d["detail"],
-        )
-        return replace(self.verdict, counterexample=ce)
-
-
-def _claim_ids() -> list[str]:
-    from proofs import claims
-
-    return list(claims.CLAIMS)
-
-
-def _audit_files(cells: Sequence[Any], with_claims: bool) -> list[str]:
-    names = list(_REPORT_FILES)
-    for load in sorted({c.load for c in cells}):
-        names += [_figure_name(m, load) for m in ("percent_optimum", "seconds", "megabytes")]
-    if with_claims:
-        names.append("claims.csv")
-    return names
-
-
-def run_audit(
-    directory: str | os.PathLike[str] = "cfopt-audit",
-    *,
-    quick: bool = False,
-    claims_only: bool = False,
-    workers: int | None = None,
-    executor: Any = None,
-    force: bool = False,
-    progress: bool = True,
-    cells: Sequence[Any] | None = None,
-    missions: int | None = None,
-    budget: int | None = None,
-    seed: int = 0,
-) -> AuditResult:
-    """The main job: the seed's claims checked and the optimal-gap report, in ``directory``.
-
-    Parameters
-    ----------
-    directory : path, default "cfopt-audit"
-        Receives ``report.md``, ``report.html``, the CSV tables, the box plots,
-        ``claims.csv``, ``counterexamples/`` and the trials (``trials.sqlite``).  If any
-        of those report files or counterexamples exist already, nothing is computed and
-        :class:`cfopt.MissionError` is raised, unless ``force``.  The store is reused:
-        an interrupted audit resumes with the trials it had finished.
-    quick : bool
-        The quick grid (:func:`cfopt.experiments.quick_grid`, 2 missions per cell) and
-        claims budget 5, instead of the audit grid (:func:`cfopt.experiments.audit_grid`,
-        4 missions per cell) and budget 25.
-    claims_only : bool
-        Only the claims: verdicts and counterexamples, no sweep and no report.
-    workers, executor
-        As in :func:`cfopt.experiments.run_sweep`; claims are checked on the same
-        executor, alongside the trials.
-    cells, missions, budget, seed
-        Override the grid, missions per cell, claims budget and claims seed.
-
-    Returns
-    -------
-    AuditResult
-    """
-    from cfopt.experiments import Sweep, audit_grid, make_executor, quick_grid, run_sweep
-
-    directory = Path(directory)
-    cells = tuple(cells) if cells is not None else (quick_grid() if quick else audit_grid())
-    missions = missions or (QUICK_MISSIONS if quick else AUDIT_MISSIONS)
-    budget = budget or (QUICK_BUDGET if quick else AUDIT_BUDGET)
-    cx_dir = directory / COUNTEREXAMPLES
-    if not force:
-        check_free(directory, [] if claims_only else _audit_files(cells, True))
-        if cx_dir.is_dir() and any(cx_dir.iterdir()):
-            raise MissionError(
-                f"{os.fspath(cx_dir)}: already holds counterexamples; pass --force "
-                "(force=True) to replace them, or choose another directory"
-            )
-    elif directory.exists() and not directory.is_dir():
-        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
-    sweep = None if claims_only else Sweep(cells=cells, missions=missions)
-    ids = _claim_ids()
-    verdicts: dict[int, Any] = {}
-    failures: list[tuple[str, str]] = []
-
-    def collect(number: int, future: Any) -> None:
-        exc = future.exception()
-        if exc is None:
-            result = future.result()
-            verdicts[number] = result.restore() if isinstance(result, _Portable) else result
-        else:
-            import traceback
-
-            failures.append(
-                (
-                    ids[number],
-                    "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)),
-                )
-            )
-
-    jobs = [(check_claim, (cid, budget, seed), {}) for cid in ids]
-    own = executor is None
-    pool = make_executor(workers) if own else executor
-    outcome = None
-    try:
-        if sweep is None:
-            futures = [pool.submit(fn, *args, **kwargs) for fn, args, kwargs in jobs]
-            for number, future in enumerate(futures):
-                future.exception()  # waits
-                collect(number, future)
-        else:
-            directory.mkdir(parents=True, exist_ok=True)
-            outcome = run_sweep(
-                sweep,
-                directory / AUDIT_STORE,
-                executor=pool,
-                progress=progress,
-                extra_jobs=jobs,
-                on_extra=collect,
-            )
-    finally:
-        if own:
-            pool.shutdown(wait=True, cancel_futures=True)
-    ordered = tuple(verdicts[i] for i in sorted(verdicts))
-    from proofs.claims import write_counterexamples
-
-    claim_files = tuple(write_counterexamples(ordered, cx_dir, overwrite=force))
-    report = None
-    if outcome is not None:
-        trials, version = load_trials(directory / AUDIT_STORE, outcome.code_version)
-        wanted = {(c.label, c.mission_seed(i)) for c in sweep.cells for i in range(missions)}
-        trials = [t for t in trials if (t.cell, t.mission_seed) in wanted]
-        report = write_report(
-            trials,
-            directory,
-            version=version,
-            claims=ordered,
-            claim_files=claim_files,
-            source=os.fspath(directory / AUDIT_STORE),
-            force=force,
-            title="cfopt audit: the seed's claims and the optimal-gap report",
-        )
-    return AuditResult(directory, ordered, report, outcome, claim_files, tuple(failures))

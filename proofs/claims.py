@@ -1,8 +1,8 @@
 """The seed's claims as executable properties, with verdicts and shrunk counterexamples.
 
 Every entry of :data:`CLAIMS` quotes a statement of the seed paper
-(``seed/grape-s-paper.tex``: Diehl and Adams, "GRAPE-S: Near Real-Time Coalition Formation
-for Multiple Service Collectives"), names the missions it ranges over, and checks it:
+(Diehl and Adams, "GRAPE-S: Near Real-Time Coalition Formation for Multiple
+Service Collectives"), names the missions it ranges over, and checks it:
 :meth:`Claim.check` returns a :class:`Verdict` -- ``holds`` (no counterexample among the
 missions checked), ``fails`` (with a :class:`Counterexample`: a mission and the partition
 the algorithm produced on it) or ``inconclusive``.
@@ -123,7 +123,8 @@ class Counterexample:
         return (m.n_robots, m.n_tasks, m.n_services)
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"mission", "assignment", "algorithm", "detail"}`` in the file formats (§1, §2)."""
+        """``{"mission", "assignment", "algorithm", "detail"}``, the first two in the
+        ``cfopt.mission/1`` and ``cfopt.assignment/1`` formats."""
         return {
             "mission": self.mission.to_dict(),
             "assignment": self.assignment.to_dict(self.mission),
@@ -134,7 +135,7 @@ class Counterexample:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The outcome of :meth:`Claim.check` (one ``audit.claims`` entry of interface.md §3)."""
+    """The outcome of :meth:`Claim.check` (an entry of ``cfopt audit --json``'s ``claims``)."""
 
     claim_id: str
     statement: str
@@ -143,6 +144,29 @@ class Verdict:
     counterexample: Counterexample | None
     seconds: float
     note: str = ""
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Verdict:
+        """The verdict :meth:`to_dict` described (the counterexample rebuilt and validated)."""
+        ce = data.get("counterexample")
+        counterexample = None
+        if ce is not None:
+            mission = Mission.from_dict(ce["mission"])
+            counterexample = Counterexample(
+                mission=mission,
+                assignment=Assignment.from_dict(mission, ce["assignment"]),
+                algorithm=ce["algorithm"],
+                detail=ce["detail"],
+            )
+        return cls(
+            claim_id=data["id"],
+            statement=data["statement"],
+            verdict=VerdictKind(data["verdict"]),
+            instances_checked=int(data["instances_checked"]),
+            counterexample=counterexample,
+            seconds=float(data["seconds"]),
+            note=data.get("note", ""),
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready; ``verdict`` is ``"holds"``, ``"fails"`` or ``"inconclusive"``."""
@@ -181,7 +205,7 @@ class Claim:
     Attributes
     ----------
     id : str
-        ``L1``, ``T1``, ``G1``... (algorithms.md §7 and the additions listed there).
+        ``L1``, ``T1``, ``G1``... (the keys of :data:`CLAIMS`).
     statement : str
         The claim, quoting the seed with its section.
     family : str
@@ -938,25 +962,26 @@ def _build() -> dict[str, Claim]:
         _scaling(
             "X5",
             "§3.1: \"SDA's computational complexity is O(m n^4 u_max / eps_d)\" (the toolkit's "
-            "reading of SDA, algorithms.md §6; work: bundle cost-matrix entries)",
+            "reading of SDA, :func:`heuristics.sda`; work: bundle cost-matrix entries)",
             [_Part("sda", "work", 5, "m n^4, m ~ n")],
         ),
         _scaling(
             "X6",
             '§3.1: SDA\'s "communication complexity is O((m + n) |S| u_max / eps_d)" (the '
-            "toolkit's reading and point-to-point message model of SDA, algorithms.md §6)",
+            "toolkit's reading and point-to-point message model of SDA, :func:`heuristics.sda`)",
             [_Part("sda", "messages", 1, "m + n, m ~ n")],
         ),
         _scaling(
             "X7",
             '§3.1: "RACHNA_dt\'s computational ... complexities are O(m n^3 log n (u_max))" '
-            "(the toolkit's reading, algorithms.md §6; the log n factor inside the tolerance)",
+            "(the toolkit's reading, :func:`heuristics.rachna_dt`; the log n factor inside "
+            "the tolerance)",
             [_Part("rachna-dt", "work", 4, "m n^3 log n, m ~ n")],
         ),
         _scaling(
             "X8",
             '§3.1: RACHNA_dt\'s communication complexity is "O(n^3 m |S| (u_max))" (the '
-            "toolkit's reading and message model, algorithms.md §6)",
+            "toolkit's reading and message model, :func:`heuristics.rachna_dt`)",
             [_Part("rachna-dt", "messages", 4, "n^3 m, m ~ n")],
         ),
         _property(
@@ -1002,7 +1027,8 @@ def _build() -> dict[str, Claim]:
     return {c.id: c for c in claims}
 
 
-#: The claims, in the audit's order: algorithms.md §7 (L1 ... X2), then the additions.
+#: The claims, in the audit's order: the seed's stability, optimality and complexity
+#: claims (L1 ... X2), then further statements of the seed (X3 ...).
 CLAIMS: dict[str, Claim] = _build()
 
 

@@ -1,6 +1,6 @@
 """Complexity scaling: size ladders of counted cost and log-log exponent fits.
 
-Counting, not timing (algorithms.md §8): every heuristic's :class:`heuristics.Run`
+Counting, not timing: every heuristic's :class:`heuristics.Run`
 reports ``work`` (its documented unit of computation), ``rounds``, ``messages`` and
 ``bytes``.  These are deterministic for a mission, so a ladder of missions from the seed's
 family (:func:`cfopt.generate_mission`) at growing sizes, fitted by least squares in

@@ -1,6 +1,6 @@
 """Nash and pairwise stability of a partition, checked exactly, with concrete violations.
 
-The reward is the seed's (algorithms.md §2) with ``u_js = req[j, s]``: a robot that is
+The reward is the seed paper's GRAPE-S reward with ``u_js = req[j, s]``: a robot that is
 one of ``c`` robots performing ``s`` for task ``j`` earns ``exp(1 - c / req[j, s])``, an
 unassigned robot earns 0.  The reward is strictly decreasing in the *load*
 ``c / req[j, s]``, so every comparison here is a comparison of loads, done exactly by
@@ -125,7 +125,7 @@ class Move:
         return _apply((self,), assignment)
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
-        """``{"robot", "from", "to"}`` with ids and names (interface.md §3)."""
+        """``{"robot", "from", "to"}`` with ids and names (what ``cfopt check --json`` lists)."""
         return {
             "robot": mission.robot_ids[self.robot],
             "from": _slot_dict(mission, self.source),
@@ -165,7 +165,7 @@ class PairwiseViolation:
         return _apply(self.moves, assignment)
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
-        """``{"robots": [...], "moves": [...], "kind": ...}`` (interface.md §3)."""
+        """``{"robots": [...], "moves": [...], "kind": ...}``, as ``cfopt check --json`` lists."""
         return {
             "robots": [mission.robot_ids[i] for i in self.robots],
             "moves": [mv.to_dict(mission) for mv in self.moves],

@@ -17,6 +17,7 @@ import cfopt.experiments
 import proofs.claims
 from cfopt import Assignment, GridCell, generate_mission
 from cfopt.cli import main
+from cfopt.experiments import ResultStore, code_version
 from proofs.claims import Counterexample, Verdict, VerdictKind
 
 TINY = (GridCell(20, 10, 5, 2), GridCell(20, 50, 5, 1, load=1.25))
@@ -58,7 +59,8 @@ def _audit(tmp_path: Path, *extra: str) -> int:
 def test_quick_audit_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
     assert _audit(tmp_path) == 0
     out = capsys.readouterr().out
-    assert "% of optimum: median (min, max)" in out
+    assert "% of optimum" in out and "Cells: median (min, max)" in out
+    assert max(len(line) for line in out.splitlines() if str(tmp_path) not in line) <= 100
     assert "over-subscribed (load 1.25)" in out and "achievable (load 1)" in out
     assert "H1" in out and "holds" in out and "fails" in out and "4/2/2" in out
     folder = tmp_path / "audit"
@@ -111,8 +113,10 @@ def test_claims_only(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None
     out = capsys.readouterr().out
     assert "verdict" in out and "F1" in out and "% of optimum" not in out
     folder = tmp_path / "audit"
-    assert not (folder / "report.md").exists() and not (folder / "trials.sqlite").exists()
+    assert not (folder / "report.md").exists()
     assert (folder / "counterexamples" / "F1.mission.json").is_file()
+    with ResultStore(folder / "trials.sqlite", create=False) as db:  # verdicts kept to resume
+        assert db.count() == 0 and len(db.claims(5, 0, code_version("claims"))) == 2
     assert _audit(tmp_path, "--claims-only") == 2  # the counterexamples are not replaced
     assert "already holds counterexamples" in capsys.readouterr().err
 

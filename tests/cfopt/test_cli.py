@@ -82,7 +82,7 @@ def test_validate_rejects_malformed_missions_with_one_error_line(
                 "--services-per-robot",
                 "3",
             ],
-            "services_per_robot: must be",
+            "--services-per-robot: must be",
             id="k-over-s",
         ),
         pytest.param(["frobnicate"], "invalid choice: 'frobnicate'", id="unknown-command"),
@@ -97,7 +97,7 @@ def test_validate_from_stdin_through_a_real_process(tmp_path) -> None:
     text = Mission.from_arrays([[1]], [[1]], [3.0]).to_json()
     result = cfopt("validate", "-", stdin=text)
     assert result.returncode == 0
-    assert result.stdout == "ok: 1 robots, 1 tasks, 1 services\n"
+    assert result.stdout == "ok: 1 robot, 1 task, 1 service\n"
     broken = cfopt("validate", "-", stdin=text.replace('"utility": 3', '"utility": -3'))
     assert_one_error_line(broken, "<stdin>: tasks[0].utility: must be a finite number >= 0, got -3")
 

@@ -51,7 +51,7 @@ EXPECTED = {
 }
 
 
-def test_claim_list_starts_with_algorithms_md_section_7() -> None:
+def test_claim_list_starts_with_the_seed_stability_and_optimality_claims() -> None:
     assert list(CLAIMS)[:10] == ["L1", "T1", "G1", "G2", "G3", "G4", "P1", "R1", "X1", "X2"]
     assert set(CLAIMS) == set(EXPECTED)
     for claim in CLAIMS.values():

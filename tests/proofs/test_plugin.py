@@ -55,6 +55,10 @@ def test_capped_fails_pareto(cfopt_audit):
 
 def test_wrong_type_fails(cfopt_audit):
     cfopt_audit(not_an_assignment, max_examples=5)
+
+
+def test_idle_robots_pass_without_nash(cfopt_audit):
+    cfopt_audit(nobody, max_examples=10, nash=False)
 """
 
 
@@ -77,12 +81,17 @@ def _replay(capsys, text, *flags):
 def test_plugin_passes_stable_and_fails_broken_heuristics(pytester, capsys):
     pytester.makepyfile(test_user=USER_TESTS)
     outcome = pytester.runpytest("-p", "no:cacheprovider")
-    outcome.assert_outcomes(passed=2, failed=3)
+    outcome.assert_outcomes(passed=3, failed=3)
     text = outcome.stdout.str()
 
     # the broken heuristic: shrunk to one robot, one service, one task needing one robot
     broken = _section(text, "test_broken_fails")
     assert "cfopt_audit: nobody: the partition is not Nash stable" in broken
+    # the report shows the user's call, then the failure: none of the plugin's own source
+    assert "self._fail(" not in broken and "def _check" not in broken
+    errors = [line for line in broken.splitlines() if line.startswith("E ")]
+    assert "the partition is not Nash stable" in errors[0]
+    assert "replay: cfopt check" in errors[2]
     assert "r0: - -> t0/s0" in broken
     assert '"requires": {"s0": 1}' in broken
     (mission_path, _), report = _replay(capsys, broken)
