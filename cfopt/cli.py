@@ -302,8 +302,9 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
         type=_positive_number,
         default=None,
         metavar="SEC",
-        help="seconds the solver may spend; then the best assignment found and the proven "
-        "bound are reported with status time_limit (default: no limit)",
+        help="seconds the whole solve may take (model building included, within 0.25 s); "
+        "then the best assignment found and the proven bound are reported with status "
+        "time_limit (default: no limit)",
     )
     sub.add_argument(
         "--formulation",
@@ -593,7 +594,8 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         type=_positive_number,
         default=60.0,
         metavar="SEC",
-        help="seconds per exact solve; an optimum not proven by then is marked (default 60)",
+        help="seconds per exact solve, model building included; an optimum not proven by "
+        "then is marked (default 60)",
     )
     _add_workers_option(sub)
     sub.add_argument(

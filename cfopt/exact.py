@@ -1,6 +1,6 @@
 """The exact optimum: the ST-MR-IA-with-services ILP in cvxpy, solved by HiGHS.
 
-Two formulations of the same integer program (``algorithms.md`` §1):
+Two formulations of the same integer program:
 
 ``"aggregated"`` (the default)
     Binary ``y[j]`` per task and a continuous flow ``f[k, s]`` from each *capability
@@ -15,16 +15,20 @@ Two formulations of the same integer program (``algorithms.md`` §1):
     ``y[j]``: at most one slot per robot, ``sum_i x[i, j, s] >= req[j, s] y[j]``.
 
 Both are built from a handful of sparse matrix constraints (never a Python loop over
-the variables) and solved with ``solver=cvxpy.HIGHS``.
+the variables), compiled by cvxpy and handed to HiGHS in separate stages, so that a
+time limit covers the whole call (see :func:`solve_exact`).
 """
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import enum
 import math
+import os
+import threading
 import time
-import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -41,12 +45,16 @@ from cfopt.mission import Mission, require_mission
 if TYPE_CHECKING:  # cvxpy takes a second or two to import: only solve_exact pays for it
     import cvxpy as cp
 
-__all__ = ["FORMULATIONS", "ExactResult", "ExactStatus", "solve_exact"]
+__all__ = ["FORMULATIONS", "TIME_LIMIT_SLACK", "ExactResult", "ExactStatus", "solve_exact"]
 
 #: The formulations :func:`solve_exact` accepts.
 FORMULATIONS = ("aggregated", "assignment")
 
-#: ``gap`` divides by ``max(bound, _TINY)`` (interface.md §3).
+#: :func:`solve_exact` returns within ``time_limit`` plus this many seconds (see its
+#: Notes for the exceptions: a loaded machine, models of a million variables or more).
+TIME_LIMIT_SLACK = 0.25
+
+#: ``gap`` divides by ``max(bound, _TINY)``.
 _TINY = 1e-12
 #: The reported utility must equal the ILP objective to this relative precision.
 _OBJECTIVE_RTOL = 1e-9
@@ -54,6 +62,18 @@ _OBJECTIVE_RTOL = 1e-9
 _SUPPORT_TOL = 1e-6
 #: HiGHS's ``primal_solution_status`` value meaning "a feasible solution is held".
 _HIGHS_SOLUTION_FEASIBLE = 2
+#: HiGHS sees the utilities times a power of two that puts the largest in
+#: ``[2**(_TOP_EXPONENT - 1), 2**_TOP_EXPONENT)``: about a million, where its absolute
+#: tolerances (about 1e-6) are about 1e-12 of the largest utility.
+_TOP_EXPONENT = 20
+#: Seconds past the deadline the caller waits for the solving thread to hand over.
+_GRACE = 0.05
+#: Seconds kept back from HiGHS's time limit for cvxpy's hand-over to HiGHS (which
+#: HiGHS's clock does not see), HiGHS's own overrun of its limit (it checks its clock
+#: only now and then) and reading back and recovering the assignment: a base plus a
+#: share per model variable (measured: about 2 s for a million variables).
+_RESERVE_BASE = 0.02
+_RESERVE_PER_VARIABLE = 2e-6
 
 Formulation = Literal["aggregated", "assignment"]
 
@@ -63,8 +83,9 @@ class ExactStatus(enum.Enum):
 
     #: HiGHS proved the returned assignment optimal (within ``mip_gap``, 0 by default).
     OPTIMAL = "optimal"
-    #: The time limit stopped HiGHS: the assignment is the best incumbent found (the
-    #: empty assignment when none was found) and ``bound`` the proven upper bound.
+    #: The time limit stopped the solve: the assignment is the best incumbent HiGHS
+    #: found (the empty assignment when none was found, or when the time ran out before
+    #: HiGHS could run or hand its incumbent over) and ``bound`` the proven upper bound.
     TIME_LIMIT = "time_limit"
     #: HiGHS failed or reported something impossible for this model (infeasible,
     #: unbounded, an unknown status): the empty assignment and the trivial bound.
@@ -116,7 +137,8 @@ class ExactResult:
     assignment : Assignment
         The best assignment found; always valid for the mission.
     seconds : float
-        Wall-clock time of the whole call (model build, solve, recovery).
+        Wall-clock time of the whole call (presolve, model build, compilation, solve,
+        recovery).
     formulation : str
         ``"aggregated"`` or ``"assignment"``.
     """
@@ -131,7 +153,7 @@ class ExactResult:
     formulation: str
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
-        """The ``cfopt solve --json`` object (interface.md §3) for this result."""
+        """The ``cfopt solve --json`` object for this result."""
         return {
             "status": self.status.value,
             "utility": self.utility,
@@ -157,9 +179,14 @@ def solve_exact(
     ----------
     mission : Mission
     time_limit : float, optional
-        Seconds HiGHS may spend (model building and recovery come on top).  When it
-        runs out the result has status ``time_limit``, the best incumbent (possibly
-        the empty assignment) and HiGHS's proven dual bound.  Default: no limit.
+        Seconds the whole call may take: presolve, model building, cvxpy's
+        compilation, HiGHS and recovery.  The call returns within ``time_limit +
+        TIME_LIMIT_SLACK`` (0.25 s; see the Notes for when it can take longer), apart
+        from the first call in a process, which imports cvxpy (about a second) before
+        its clock starts.  When
+        the time runs out the result has status ``time_limit``, the best incumbent
+        (possibly the empty assignment) and HiGHS's proven dual bound (the total of the
+        tasks presolve kept when HiGHS had none or never ran).  Default: no limit.
     formulation : {"aggregated", "assignment"}, default "aggregated"
         The capability-type model (small: ``m' + |K| S'`` variables) or the per-robot
         model (``n'`` times the number of slots variables), see the module docstring.
@@ -174,8 +201,9 @@ def solve_exact(
     -------
     ExactResult
         Its ``utility`` is ``assignment.utility(mission)`` recomputed from scratch; it
-        is checked against the ILP objective (to 1e-9 relative) and a mismatch raises
-        ``RuntimeError`` (a bug, not a result).
+        is checked against the ILP objective (to 1e-9 of the larger of the objective and
+        the largest kept utility) and a mismatch raises ``RuntimeError`` (a bug, not a
+        result).
 
     Raises
     ------
@@ -192,11 +220,42 @@ def solve_exact(
     having, so the optimum is unchanged.  A mission left empty (no robots or no tasks)
     is solved without calling HiGHS: the empty assignment, proven optimal.
 
+    *Time limit.*  With a ``time_limit`` the model is built, compiled by cvxpy,
+    solved and recovered in a worker thread while the caller waits until 0.05 s past
+    the deadline.  The worker checks the deadline between stages, and HiGHS gets only
+    the time that is left, less a reserve (0.02 s plus 2 s per million variables) for
+    cvxpy's hand-over, HiGHS's own overrun and the recovery.  When the deadline passes
+    before HiGHS can start, or before the worker hands its result over, the result is
+    an honest ``time_limit``: the empty assignment and the total of the kept tasks as
+    the bound.  HiGHS checks its clock only now and then (its presolve of the
+    per-robot model with a million variables overran a 5 s limit by a minute, which
+    is why that model is solved without presolve, which also solves it faster), and
+    it cannot be stopped from outside: an abandoned run goes on in the background
+    until its next clock check.  HiGHS runs one at a time per process (a later call
+    waits for it within its own time limit), and the interpreter's exit waits for a
+    run in progress.  ``TIME_LIMIT_SLACK`` (0.25 s) covers the wait past the deadline
+    and the final checks on an ordinary machine.  It can be exceeded on a heavily
+    loaded machine, and with models of a million variables or more (the per-robot
+    model of a large mission): some steps of cvxpy's compilation and of its hand-over
+    to HiGHS hold Python's global interpreter lock for up to about 0.7 s at that size,
+    and the caller cannot return before such a step ends (its own worker's, or one of
+    a run an earlier call abandoned).
+
+    *Scaling.*  HiGHS treats costs from 1e20 up as infinite and uses absolute
+    tolerances of about 1e-6, so it is given the utilities times ``2**k``, the power of
+    two that puts the largest kept utility in ``[2**19, 2**20)`` (exact in floating
+    point: only the exponents change, except that utilities below about 1e-314 of
+    the largest lose digits or underflow to zero).  The objective, the bound and the
+    agreement checks are scaled back.  HiGHS then tells apart assignments whose
+    utilities differ by more than about 1e-12 of the largest kept utility (2e-12 at
+    most): smaller improvements (for instance a task worth 1e-300 beside one worth 1)
+    are below what it can prove, and ``optimal`` means optimal to that precision.
+    When the utilities are integers (as generated missions' are), HiGHS exploits the
+    integral objective and the optimum is exact.
+
     *Honesty.*  ``optimal`` is reported only when HiGHS reports ``kOptimal``.  The
     bound is HiGHS's ``mip_dual_bound`` (clamped to ``[utility, total of the kept
-    tasks]``; the latter when HiGHS has no bound yet).  HiGHS prunes with its
-    ``mip_feasibility_tolerance`` (1e-6), so improvements smaller than about 1e-6 in
-    absolute utility are below what it can prove.
+    tasks]``; the latter when HiGHS has no bound yet).
 
     *Recovery.*  The aggregated model's integral ``y`` is turned into robots by an
     integral max-flow source -> type -> service -> sink (sink capacities: the chosen
@@ -208,7 +267,8 @@ def solve_exact(
     Complexity: building the aggregated model is O(n S + m S) with numpy; HiGHS's
     branch and bound is exponential in the worst case (the problem is NP-hard), fast
     in practice on the seed's family; recovery is one max-flow on ``|K| + S'`` nodes
-    plus O(n + m S).  The assignment model has O(n m S) variables.
+    plus O(n + m S).  The assignment model has O(n m S) variables, and cvxpy's
+    compilation costs about a microsecond per variable.
 
     Examples
     --------
@@ -226,18 +286,22 @@ def solve_exact(
      {'robot': 'r2', 'task': 't2', 'service': 's1'}]
     >>> cfopt.solve_exact(m, formulation="assignment").utility
     8.0
+    >>> huge = cfopt.Mission.from_arrays([[1]], [[1], [1]], [1e308, 5e307])  # one robot
+    >>> cfopt.solve_exact(huge).utility
+    1e+308
     """
     import cvxpy  # noqa: F401  (a one-time import of about a second: not the solve's time)
 
     start = time.perf_counter()
     require_mission(mission)
     time_limit, formulation, mip_gap = _check_options(time_limit, formulation, mip_gap)
+    clock = _Clock(None if time_limit is None else start + time_limit)
     reduced = _presolve(mission)
     if reduced.n_tasks == 0 or reduced.n_robots == 0:
         outcome = _Outcome(ExactStatus.OPTIMAL, None, 0.0, 0.0)
     else:
-        build = _aggregated_core if formulation == "aggregated" else _assignment_core
-        outcome = build(reduced, time_limit=time_limit, mip_gap=mip_gap)
+        core = _aggregated_core if formulation == "aggregated" else _assignment_core
+        outcome = _run(core, reduced, clock, mip_gap)
     assignment = _lift(mission, reduced, outcome.task, outcome.service)
     utility = assignment.utility(mission)
     if not _agrees(utility, outcome.objective):
@@ -245,22 +309,26 @@ def solve_exact(
             f"solve_exact({formulation}): the recovered assignment earns {utility!r}, "
             f"the ILP objective is {outcome.objective!r}"
         )
-    ceiling = math.fsum(reduced.utilities.tolist())
-    bound = outcome.bound if math.isfinite(outcome.bound) else ceiling
-    bound = max(utility, min(bound, ceiling))
-    if outcome.status is ExactStatus.OPTIMAL and mip_gap == 0.0:
-        bound = utility if _agrees(bound, utility, 1e-9) else bound
-    gap = (bound - utility) / max(bound, _TINY)
+    bound = _final_bound(outcome, utility, math.fsum(reduced.utilities.tolist()), mip_gap)
     return ExactResult(
         status=outcome.status,
         utility=utility,
         bound=bound,
-        gap=gap,
+        gap=(bound - utility) / max(bound, _TINY),
         total_utility=mission.total_utility,
         assignment=assignment,
         seconds=time.perf_counter() - start,
         formulation=formulation,
     )
+
+
+def _final_bound(outcome: _Outcome, utility: float, ceiling: float, mip_gap: float) -> float:
+    """HiGHS's bound clamped to ``[utility, ceiling]`` (``ceiling`` when it has none)."""
+    bound = outcome.bound if math.isfinite(outcome.bound) else ceiling
+    bound = max(utility, min(bound, ceiling))
+    if outcome.status is ExactStatus.OPTIMAL and mip_gap == 0.0 and _agrees(bound, utility):
+        return utility
+    return bound
 
 
 # ------------------------------------------------------------------------- input
@@ -363,37 +431,221 @@ class _Outcome:
     service: npt.NDArray[np.int64] | None = None
 
 
-def _highs(
-    problem: cp.Problem, *, time_limit: float | None, mip_gap: float
-) -> tuple[ExactStatus, bool, float, float]:
-    """Solve with HiGHS; returns (status, has incumbent, objective, proven upper bound).
+#: The time ran out before HiGHS ran or handed an incumbent over: nothing done, no bound.
+_OUT_OF_TIME = _Outcome(ExactStatus.TIME_LIMIT, None, 0.0, math.inf)
+#: HiGHS failed: nothing done, no bound.
+_FAILED = _Outcome(ExactStatus.ERROR, None, 0.0, math.inf)
 
-    The model minimises ``-utility`` so that HiGHS's own sense is ours, negated: its
-    ``mip_dual_bound`` (a lower bound on the minimum) is minus our upper bound.
+_Core = Callable[["_Reduced", "_Clock", float], _Outcome]
+
+
+class _OutOfTime(Exception):
+    """The deadline passed before the next stage could start."""
+
+
+@dataclass(frozen=True)
+class _Clock:
+    """The call's deadline, a :func:`time.perf_counter` reading (``None``: no limit)."""
+
+    deadline: float | None
+
+    def remaining(self) -> float:
+        """Seconds left (``inf`` without a limit; negative once it has passed)."""
+        return math.inf if self.deadline is None else self.deadline - time.perf_counter()
+
+    def check(self) -> None:
+        """Raise :class:`_OutOfTime` when the deadline has passed."""
+        if self.remaining() <= 0.0:
+            raise _OutOfTime
+
+
+def _run(core: _Core, reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """``core``'s outcome, or :data:`_OUT_OF_TIME` when it is late.
+
+    Without a deadline ``core`` runs here.  With one it runs in a daemon worker thread
+    and the caller stops waiting at ``_GRACE`` seconds past the deadline; a late
+    worker is abandoned and its result dropped (it stops at its next clock check; the
+    interpreter's exit waits only for a HiGHS run in progress, see
+    :func:`_close_highs`).  An exception in the worker is re-raised here.
+    """
+    if clock.deadline is None:
+        return _staged(core, reduced, clock, mip_gap)
+    box: list[_Outcome | Exception] = []
+    worker = threading.Thread(
+        target=_work,
+        args=(box, core, reduced, clock, mip_gap),
+        name="cfopt-solve-exact",
+        daemon=True,
+    )
+    worker.start()
+    worker.join(max(clock.remaining() + _GRACE, 0.0))
+    if not box:
+        return _OUT_OF_TIME
+    if isinstance(box[0], Exception):
+        raise box[0]
+    return box[0]
+
+
+def _work(
+    box: list[_Outcome | Exception],
+    core: _Core,
+    reduced: _Reduced,
+    clock: _Clock,
+    mip_gap: float,
+) -> None:
+    """The worker thread's body: ``core``'s outcome, or its exception, into ``box``."""
+    try:
+        box.append(_staged(core, reduced, clock, mip_gap))
+    except Exception as exc:  # handed to the caller, which re-raises it
+        box.append(exc)
+
+
+def _staged(core: _Core, reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """``core``'s outcome, or :data:`_OUT_OF_TIME` when a stage finds the deadline past."""
+    try:
+        clock.check()
+        return core(reduced, clock, mip_gap)
+    except _OutOfTime:
+        return _OUT_OF_TIME
+
+
+#: HiGHS runs one at a time per process: an abandoned run (see :func:`_run`) must not
+#: share the machine, or HiGHS's per-thread scheduler, with the next call's run.
+_HIGHS_LOCK = threading.Lock()
+#: Set at interpreter exit: no HiGHS run may start after it.
+_CLOSED = threading.Event()
+
+
+def _forget_parent_highs() -> None:
+    """Free the HiGHS lock in a forked child.
+
+    The parent's threads, and any HiGHS run in one of them, do not exist in the child,
+    so a lock held by one of them at the fork would never be released.
+    """
+    global _HIGHS_LOCK
+    _HIGHS_LOCK = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_parent_highs)
+
+
+@atexit.register
+def _close_highs() -> None:
+    """At interpreter exit, wait for a HiGHS run in progress and let no other start.
+
+    An abandoned worker is a daemon thread, which the interpreter does not wait for;
+    one still inside HiGHS's native code must not outlive it (HiGHS's own time limit,
+    already past, stops it at its next clock check).
+    """
+    with _HIGHS_LOCK:
+        _CLOSED.set()
+
+
+@contextlib.contextmanager
+def _highs_turn(clock: _Clock, reserve: float) -> Iterator[float | None]:
+    """Hold :data:`_HIGHS_LOCK`; yields HiGHS's time limit (``None``: no limit).
+
+    Raises :class:`_OutOfTime` when the lock or a positive time limit (the time left
+    less ``reserve``) cannot be had before the deadline.
+    """
+    if clock.deadline is None:
+        with _HIGHS_LOCK:
+            yield None
+        return
+    if not _HIGHS_LOCK.acquire(timeout=max(clock.remaining() - reserve, 0.0)):
+        raise _OutOfTime
+    try:
+        seconds = clock.remaining() - reserve
+        if seconds <= 0.0 or _CLOSED.is_set():
+            raise _OutOfTime
+        yield seconds
+    finally:
+        _HIGHS_LOCK.release()
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What HiGHS reported, objective in the scaled units it saw, bound in utility."""
+
+    status: ExactStatus
+    has_incumbent: bool
+    scaled_objective: float  # the incumbent's objective times 2**shift (0 without one)
+    bound: float  # proven upper bound on the utility (inf: unknown)
+
+
+_HIGHS_FAILED = _Run(ExactStatus.ERROR, False, 0.0, math.inf)
+
+
+def _highs(
+    problem: cp.Problem, *, clock: _Clock, mip_gap: float, shift: int, presolve: bool = True
+) -> _Run:
+    """Compile ``problem`` with cvxpy, solve it with HiGHS in the time left, read it back.
+
+    The model minimises ``-utility * 2**shift`` so that HiGHS's own sense is ours,
+    negated and scaled: its ``mip_dual_bound`` (a lower bound on the minimum) is minus
+    our upper bound, scaled.  cvxpy's ``get_problem_data``, ``solve_via_data`` and
+    ``invert`` + ``unpack`` are the stages of ``Problem.solve``; calling them one by
+    one lets the clock be checked between them (and skips ``unpack_results``'s
+    "may be inaccurate" warning on a time limit, which our status already says).
+    ``presolve=False`` turns HiGHS's presolve off.
     """
     import cvxpy as cp
 
+    # cvxpy's SciPy backend compiles these sparse-matrix models faster than its default.
+    data, chain, inverse = problem.get_problem_data(
+        cp.HIGHS, ignore_dpp=True, canon_backend="SCIPY"
+    )
+    clock.check()
+    size = sum(variable.size for variable in problem.variables())
     options: dict[str, Any] = {"mip_rel_gap": mip_gap, "mip_abs_gap": 0.0}
-    if time_limit is not None:
-        options["time_limit"] = time_limit
-    try:
-        with warnings.catch_warnings():
-            # cvxpy warns "Solution may be inaccurate" on a time limit; the status says so.
-            warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=cp.HIGHS, ignore_dpp=True, warm_start=False, **options)
-    except cp.SolverError:
-        return ExactStatus.ERROR, False, 0.0, math.inf
-    status = _map_status(problem.status)
-    info = problem.solver_stats.extra_stats if problem.solver_stats else None
+    if not presolve:
+        options["presolve"] = "off"
+    with _highs_turn(clock, _RESERVE_BASE + _RESERVE_PER_VARIABLE * size) as seconds:
+        if seconds is not None:
+            options["time_limit"] = seconds
+        try:
+            raw = chain.solve_via_data(problem, data, False, False, options)
+        except cp.SolverError:
+            return _HIGHS_FAILED
+    return _read_back(problem, chain.invert(raw, inverse), raw, shift)
+
+
+def _read_back(problem: cp.Problem, solution: Any, raw: Any, shift: int) -> _Run:
+    """HiGHS's status, incumbent and unscaled bound, read back.
+
+    ``solution`` is cvxpy's inverted solution (its point goes into ``problem``'s
+    variables), ``raw`` HiGHS's results as cvxpy's ``solve_via_data`` returns them.
+    """
+    status = _map_status(solution.status)
+    info = raw.get("info") if isinstance(raw, dict) else None
     if status is ExactStatus.ERROR or info is None:
-        return ExactStatus.ERROR, False, 0.0, math.inf
+        return _HIGHS_FAILED
+    problem.unpack(solution)
     has_incumbent = int(info.primal_solution_status) == _HIGHS_SOLUTION_FEASIBLE
-    objective = -float(info.objective_function_value) if has_incumbent else 0.0
-    dual = float(info.mip_dual_bound)
-    bound = -dual if math.isfinite(dual) else math.inf
     if status is ExactStatus.OPTIMAL and not has_incumbent:
-        return ExactStatus.ERROR, False, 0.0, math.inf  # "optimal" without a point
-    return status, has_incumbent, objective, bound
+        return _HIGHS_FAILED  # "optimal" without a point
+    scaled = -float(info.objective_function_value) if has_incumbent else 0.0
+    dual = float(info.mip_dual_bound)
+    bound = _unscale(-dual, shift) if math.isfinite(dual) else math.inf
+    return _Run(status, has_incumbent, scaled, bound)
+
+
+def _shift(utilities: npt.NDArray[np.float64]) -> int:
+    """The ``k`` for which ``utilities * 2**k`` has its largest in ``[2**19, 2**20)``."""
+    return _TOP_EXPONENT - math.frexp(float(utilities.max()))[1]
+
+
+def _scaled(utilities: npt.NDArray[np.float64], shift: int) -> npt.NDArray[np.float64]:
+    """``utilities * 2**shift``, exactly (only tiny values can underflow)."""
+    return np.ldexp(utilities, shift)
+
+
+def _unscale(value: float, shift: int) -> float:
+    """``value / 2**shift``; +-inf where that overflows."""
+    try:
+        return math.ldexp(value, -shift)
+    except OverflowError:
+        return math.copysign(math.inf, value)
 
 
 def _chosen(y: cp.Variable, has_incumbent: bool, n_tasks: int) -> npt.NDArray[np.bool_]:
@@ -402,55 +654,91 @@ def _chosen(y: cp.Variable, has_incumbent: bool, n_tasks: int) -> npt.NDArray[np
     return np.asarray(y.value).reshape(-1) > 0.5
 
 
-def _agrees(a: float, b: float, rtol: float = _OBJECTIVE_RTOL) -> bool:
-    return a == b or abs(a - b) <= rtol * max(abs(a), abs(b))
+def _agrees(a: float, b: float, rtol: float = _OBJECTIVE_RTOL, scale: float = 0.0) -> bool:
+    """``a == b`` to ``rtol`` of the larger of ``|a|``, ``|b|`` and ``scale``."""
+    return a == b or abs(a - b) <= rtol * max(abs(a), abs(b), scale)
 
 
-def _checked_objective(reduced: _Reduced, chosen: npt.NDArray[np.bool_], solver: float) -> float:
-    """The ILP objective at the rounded point, checked against HiGHS's own value."""
-    objective = math.fsum(reduced.utilities[chosen].tolist())
-    if not _agrees(objective, solver):
+def _checked_objective(
+    reduced: _Reduced, chosen: npt.NDArray[np.bool_], run: _Run, shift: int
+) -> float:
+    """The ILP objective at the rounded point, checked against HiGHS's own value.
+
+    The check is in HiGHS's scaled units, to 1e-9 of the larger of the objective and
+    the largest utility (``2**20`` scaled): below that HiGHS cannot tell anyway.
+    """
+    if not run.has_incumbent:
+        return 0.0
+    utilities = reduced.utilities[chosen]
+    expected = math.fsum(_scaled(utilities, shift).tolist())
+    if not _agrees(expected, run.scaled_objective, scale=2.0**_TOP_EXPONENT):
         raise _InternalError(
-            f"HiGHS reports objective {solver!r} but its integral point earns {objective!r}"
+            f"HiGHS reports objective {run.scaled_objective!r} (scaled by 2**{shift}) "
+            f"but its integral point earns {expected!r}"
         )
-    return objective
+    return math.fsum(utilities.tolist())
 
 
 # --------------------------------------------------------------- aggregated model
-def _aggregated_core(reduced: _Reduced, *, time_limit: float | None, mip_gap: float) -> _Outcome:
+@dataclass(frozen=True, eq=False)
+class _Types:
+    """Robots grouped by capability type, and the (type, service) pairs of the flow."""
+
+    which: npt.NDArray[np.intp]  # reduced robot -> its type
+    counts: npt.NDArray[np.int64]  # type -> number of robots
+    pair_kind: npt.NDArray[np.intp]  # one flow variable per (type, service) pair,
+    pair_service: npt.NDArray[np.intp]  # sorted by (type, service)
+
+
+def _types(capabilities: npt.NDArray[np.bool_]) -> _Types:
+    """The capability types (distinct rows of ``capabilities``) and their pairs."""
+    kinds, which = np.unique(capabilities, axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    pair_kind, pair_service = np.nonzero(kinds)
+    return _Types(which, np.bincount(which, minlength=len(kinds)), pair_kind, pair_service)
+
+
+def _aggregated_problem(
+    reduced: _Reduced, types: _Types, shift: int
+) -> tuple[cp.Problem, cp.Variable, cp.Variable]:
+    """The capability-type model: (problem, ``y`` per task, ``f`` per pair)."""
     import cvxpy as cp
 
-    reqs, utils = reduced.requirements, reduced.utilities
-    m, n_services = reqs.shape
-    kinds, which = np.unique(reduced.capabilities, axis=0, return_inverse=True)
-    which = which.reshape(-1)
-    counts = np.bincount(which, minlength=len(kinds))
-    pair_kind, pair_service = np.nonzero(kinds)  # one flow variable per (type, service)
-    n_pairs = len(pair_kind)
-    ones = np.ones(n_pairs)
-    columns = np.arange(n_pairs)
-    by_kind = sp.csr_array((ones, (pair_kind, columns)), shape=(len(kinds), n_pairs))
-    by_service = sp.csr_array((ones, (pair_service, columns)), shape=(n_services, n_pairs))
-    need = sp.csr_array(reqs.T.astype(float))  # service x task requirements
-
+    m, n_services = reduced.requirements.shape
+    n_pairs = len(types.pair_kind)
+    ones, columns = np.ones(n_pairs), np.arange(n_pairs)
+    by_kind = sp.csr_array((ones, (types.pair_kind, columns)), shape=(len(types.counts), n_pairs))
+    by_service = sp.csr_array((ones, (types.pair_service, columns)), shape=(n_services, n_pairs))
+    need = sp.csr_array(reduced.requirements.T.astype(float))  # service x task requirements
     y = cp.Variable(m, boolean=True)
     f = cp.Variable(n_pairs, nonneg=True)
     problem = cp.Problem(
-        cp.Minimize(-(utils @ y)),
-        [by_kind @ f <= counts.astype(float), by_service @ f >= need @ y],
+        cp.Minimize(-(_scaled(reduced.utilities, shift) @ y)),
+        [by_kind @ f <= types.counts.astype(float), by_service @ f >= need @ y],
     )
-    status, has_incumbent, solver_objective, bound = _highs(
-        problem, time_limit=time_limit, mip_gap=mip_gap
+    return problem, y, f
+
+
+def _aggregated_core(reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """Build, solve and recover the capability-type model, checking ``clock`` between."""
+    types = _types(reduced.capabilities)
+    shift = _shift(reduced.utilities)
+    problem, y, f = _aggregated_problem(reduced, types, shift)
+    clock.check()
+    run = _highs(problem, clock=clock, mip_gap=mip_gap, shift=shift)
+    if run.status is ExactStatus.ERROR:
+        return _FAILED
+    chosen = _chosen(y, run.has_incumbent, reduced.n_tasks)
+    objective = _checked_objective(reduced, chosen, run, shift)
+    reqs = reduced.requirements
+    lp_flow = np.asarray(f.value).reshape(-1) if run.has_incumbent and f.value is not None else None
+    pair_flow = _integral_flow(
+        types.counts, reqs[chosen].sum(axis=0), types.pair_kind, types.pair_service, lp_flow
     )
-    if status is ExactStatus.ERROR:
-        return _Outcome(status, None, 0.0, bound)
-    chosen = _chosen(y, has_incumbent, m)
-    objective = _checked_objective(reduced, chosen, solver_objective) if has_incumbent else 0.0
-    demand = reqs[chosen].sum(axis=0)
-    lp_flow = np.asarray(f.value).reshape(-1) if has_incumbent and f.value is not None else None
-    pair_flow = _integral_flow(counts, demand, pair_kind, pair_service, lp_flow)
-    task, service = _hand_out(reqs, chosen, which, counts, pair_kind, pair_service, pair_flow)
-    return _Outcome(status, task, objective, bound, service)
+    task, service = _hand_out(
+        reqs, chosen, types.which, types.counts, types.pair_kind, types.pair_service, pair_flow
+    )
+    return _Outcome(run.status, task, objective, run.bound, service)
 
 
 def _integral_flow(
@@ -597,60 +885,99 @@ def _hand_out(
 
 
 # --------------------------------------------------------------- assignment model
-def _assignment_core(reduced: _Reduced, *, time_limit: float | None, mip_gap: float) -> _Outcome:
-    import cvxpy as cp
+@dataclass(frozen=True, eq=False)
+class _Pairs:
+    """One ``x`` variable per (robot, slot) the robot can fill; slot = (task, service)."""
 
-    reqs, utils, caps = reduced.requirements, reduced.utilities, reduced.capabilities
-    m, n_services = reqs.shape
-    n = caps.shape[0]
-    slot_task, slot_service = np.nonzero(reqs)  # slot l = (task, service), row-major
-    n_slots = len(slot_task)
+    robot: npt.NDArray[np.intp]  # pair -> reduced robot
+    slot: npt.NDArray[np.intp]  # pair -> slot
+    slot_task: npt.NDArray[np.intp]  # slot l = (task, service), row-major
+    slot_service: npt.NDArray[np.intp]
+
+
+def _pairs(reduced: _Reduced) -> _Pairs:
+    """Every (robot, slot) pair where the robot has the slot's service."""
+    caps = reduced.capabilities
+    slot_task, slot_service = np.nonzero(reduced.requirements)
     robot_parts, slot_parts = [], []
-    for s in range(n_services):  # S' iterations, each vectorised over robots x slots
+    for s in range(caps.shape[1]):  # S' iterations, each vectorised over robots x slots
         robots_s = np.flatnonzero(caps[:, s])
         slots_s = np.flatnonzero(slot_service == s)
         robot_parts.append(np.repeat(robots_s, len(slots_s)))
         slot_parts.append(np.tile(slots_s, len(robots_s)))
-    pair_robot = np.concatenate(robot_parts)
-    pair_slot = np.concatenate(slot_parts)
-    n_pairs = len(pair_robot)
-    ones = np.ones(n_pairs)
-    columns = np.arange(n_pairs)
-    by_robot = sp.csr_array((ones, (pair_robot, columns)), shape=(n, n_pairs))
-    by_slot = sp.csr_array((ones, (pair_slot, columns)), shape=(n_slots, n_pairs))
-    slot_need = sp.csr_array(
-        (reqs[slot_task, slot_service].astype(float), (np.arange(n_slots), slot_task)),
-        shape=(n_slots, m),
-    )
+    return _Pairs(np.concatenate(robot_parts), np.concatenate(slot_parts), slot_task, slot_service)
 
-    y = cp.Variable(m, boolean=True)
+
+def _assignment_problem(
+    reduced: _Reduced, pairs: _Pairs, shift: int
+) -> tuple[cp.Problem, cp.Variable, cp.Variable]:
+    """The per-robot model: (problem, ``y`` per task, ``x`` per pair)."""
+    import cvxpy as cp
+
+    reqs = reduced.requirements
+    n_slots, n_pairs = len(pairs.slot_task), len(pairs.robot)
+    ones, columns = np.ones(n_pairs), np.arange(n_pairs)
+    by_robot = sp.csr_array((ones, (pairs.robot, columns)), shape=(reduced.n_robots, n_pairs))
+    by_slot = sp.csr_array((ones, (pairs.slot, columns)), shape=(n_slots, n_pairs))
+    slot_need = sp.csr_array(
+        (
+            reqs[pairs.slot_task, pairs.slot_service].astype(float),
+            (np.arange(n_slots), pairs.slot_task),
+        ),
+        shape=(n_slots, reduced.n_tasks),
+    )
+    y = cp.Variable(reduced.n_tasks, boolean=True)
     x = cp.Variable(n_pairs, boolean=True)
     problem = cp.Problem(
-        cp.Minimize(-(utils @ y)),
+        cp.Minimize(-(_scaled(reduced.utilities, shift) @ y)),
         [by_robot @ x <= 1.0, by_slot @ x >= slot_need @ y],
     )
-    status, has_incumbent, solver_objective, bound = _highs(
-        problem, time_limit=time_limit, mip_gap=mip_gap
-    )
-    if status is ExactStatus.ERROR:
-        return _Outcome(status, None, 0.0, bound)
-    chosen = _chosen(y, has_incumbent, m)
-    objective = _checked_objective(reduced, chosen, solver_objective) if has_incumbent else 0.0
-    task = np.full(n, UNASSIGNED, dtype=np.int64)
-    service = np.full(n, UNASSIGNED, dtype=np.int64)
-    if has_incumbent and x.value is not None:
-        picked = np.flatnonzero(np.asarray(x.value).reshape(-1) > 0.5)
-        # Keep only robots in slots of chosen tasks: the others earn nothing in the ILP.
-        picked = picked[chosen[slot_task[pair_slot[picked]]]]
-        # ... and only the first req[j, s] robots (by index) of each slot: no surplus.
-        picked = picked[np.lexsort((pair_robot[picked], pair_slot[picked]))]
-        slots = pair_slot[picked]
-        first = np.searchsorted(slots, slots)  # picked is sorted by slot
-        rank = np.arange(len(picked)) - first
-        picked = picked[rank < reqs[slot_task[slots], slot_service[slots]]]
-        robots = pair_robot[picked]
-        if len(np.unique(robots)) != len(robots):
-            raise _InternalError("HiGHS's point gives some robot two slots")
-        task[robots] = slot_task[pair_slot[picked]]
-        service[robots] = slot_service[pair_slot[picked]]
-    return _Outcome(status, task, objective, bound, service)
+    return problem, y, x
+
+
+def _assignment_core(reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """Build, solve and recover the per-robot model, checking ``clock`` between."""
+    pairs = _pairs(reduced)
+    clock.check()
+    shift = _shift(reduced.utilities)
+    problem, y, x = _assignment_problem(reduced, pairs, shift)
+    clock.check()
+    # HiGHS's presolve finds nothing to remove in this model, costs most of the solve
+    # time and checks the clock rarely (a minute past a 5 s limit with 10^6 variables).
+    run = _highs(problem, clock=clock, mip_gap=mip_gap, shift=shift, presolve=False)
+    if run.status is ExactStatus.ERROR:
+        return _FAILED
+    chosen = _chosen(y, run.has_incumbent, reduced.n_tasks)
+    objective = _checked_objective(reduced, chosen, run, shift)
+    x_value = np.asarray(x.value).reshape(-1) if run.has_incumbent and x.value is not None else None
+    task, service = _seated(reduced, pairs, chosen, x_value)
+    return _Outcome(run.status, task, objective, run.bound, service)
+
+
+def _seated(
+    reduced: _Reduced,
+    pairs: _Pairs,
+    chosen: npt.NDArray[np.bool_],
+    x_value: npt.NDArray[np.float64] | None,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Each robot's (task, service) from HiGHS's ``x``, keeping only useful robots."""
+    task = np.full(reduced.n_robots, UNASSIGNED, dtype=np.int64)
+    service = np.full(reduced.n_robots, UNASSIGNED, dtype=np.int64)
+    if x_value is None:
+        return task, service
+    picked = np.flatnonzero(x_value > 0.5)
+    # Keep only robots in slots of chosen tasks: the others earn nothing in the ILP.
+    picked = picked[chosen[pairs.slot_task[pairs.slot[picked]]]]
+    # ... and only the first req[j, s] robots (by index) of each slot: no surplus.
+    picked = picked[np.lexsort((pairs.robot[picked], pairs.slot[picked]))]
+    slots = pairs.slot[picked]
+    first = np.searchsorted(slots, slots)  # picked is sorted by slot
+    rank = np.arange(len(picked)) - first
+    need = reduced.requirements[pairs.slot_task[slots], pairs.slot_service[slots]]
+    picked = picked[rank < need]
+    robots = pairs.robot[picked]
+    if len(np.unique(robots)) != len(robots):
+        raise _InternalError("HiGHS's point gives some robot two slots")
+    task[robots] = pairs.slot_task[pairs.slot[picked]]
+    service[robots] = pairs.slot_service[pairs.slot[picked]]
+    return task, service

@@ -85,7 +85,7 @@ __all__ = [
     "run_trial",
 ]
 
-#: Default HiGHS time limit (seconds) of a sweep's exact solves.
+#: Default time limit (seconds) of a sweep's exact solves (the whole solve_exact call).
 DEFAULT_TIME_LIMIT = 60.0
 _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))
 _PERCENTS = (1.0, 10.0, 50.0)

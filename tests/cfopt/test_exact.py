@@ -11,6 +11,8 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import threading
+import time
 
 import networkx as nx
 import numpy as np
@@ -349,12 +351,186 @@ def test_time_limit_generous_enough_is_still_optimal() -> None:
     assert result.utility == solve_exact(mission).utility
 
 
+@pytest.fixture
+def cvxpy_imported() -> None:
+    """solve_exact's first call imports cvxpy (about a second) before its clock starts."""
+    pytest.importorskip("cvxpy")
+
+
+@pytest.mark.usefixtures("cvxpy_imported")
+@pytest.mark.parametrize("limit", [0.05, 0.3], ids=["in-the-build", "in-the-compilation"])
+def test_time_limit_bounds_the_whole_call_including_the_model_build(limit: float) -> None:
+    # About 450,000 (robot, slot) variables: building and compiling the per-robot
+    # model takes longer than the limit by itself (it used to be uncounted: > 1 s).
+    # HiGHS would then need a reserve of about 1 s: it never starts.
+    mission = cfopt.generate_mission(1000, 50, 10, 5, seed=0)  # every task doable
+    start = time.perf_counter()
+    result = solve_exact(mission, time_limit=limit, formulation="assignment")
+    wall = time.perf_counter() - start
+    assert wall <= limit + exact_module.TIME_LIMIT_SLACK
+    assert result.seconds <= wall
+    assert_honest(mission, result)
+    # Out of time before HiGHS could run: nothing done, the doable tasks' total as bound.
+    assert result.status is ExactStatus.TIME_LIMIT
+    assert (result.utility, result.assignment.n_assigned) == (0.0, 0)
+    assert result.bound == result.total_utility
+    _wait_for_abandoned_workers()  # it stops at its next clock check: not the next test's
+
+
+def _wait_for_abandoned_workers() -> None:
+    for thread in threading.enumerate():
+        if thread.name == "cfopt-solve-exact":
+            thread.join(timeout=60)
+            assert not thread.is_alive()
+
+
+def test_a_late_worker_is_abandoned_and_its_exceptions_are_re_raised() -> None:
+    reduced = exact_module._presolve(cfopt.generate_mission(10, 10, 3, 1, seed=0))
+    release = threading.Event()
+
+    def stuck(*_: object) -> exact_module._Outcome:  # like HiGHS past its own limit
+        release.wait(10)
+        return exact_module._FAILED
+
+    def broken(*_: object) -> exact_module._Outcome:
+        raise ValueError("a bug in the worker")
+
+    start = time.perf_counter()
+    clock = exact_module._Clock(start + 0.1)
+    try:
+        outcome = exact_module._run(stuck, reduced, clock, 0.0)
+        wall = time.perf_counter() - start
+    finally:
+        release.set()
+    assert wall <= 0.1 + exact_module.TIME_LIMIT_SLACK
+    assert outcome is exact_module._OUT_OF_TIME
+    _wait_for_abandoned_workers()
+    with pytest.raises(ValueError, match="a bug in the worker"):
+        exact_module._run(broken, reduced, exact_module._Clock(time.perf_counter() + 10), 0.0)
+
+
+@pytest.mark.usefixtures("cvxpy_imported")
+def test_a_busy_highs_is_waited_for_only_within_the_time_limit() -> None:
+    mission = cfopt.generate_mission(30, 10, 5, 2, seed=0)  # every task doable
+    with exact_module._HIGHS_LOCK:  # as while an abandoned HiGHS run finishes
+        start = time.perf_counter()
+        result = solve_exact(mission, time_limit=0.2)
+        wall = time.perf_counter() - start
+    assert wall <= 0.2 + exact_module.TIME_LIMIT_SLACK
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.TIME_LIMIT
+    assert (result.utility, result.bound) == (0.0, result.total_utility)
+    assert solve_exact(mission, time_limit=10).status is ExactStatus.OPTIMAL
+
+
+def test_a_forked_child_does_not_inherit_a_held_highs_lock(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(exact_module, "_HIGHS_LOCK", threading.Lock())
+    exact_module._HIGHS_LOCK.acquire()  # held by a parent's thread at the fork
+    exact_module._forget_parent_highs()  # what os.register_at_fork runs in the child
+    assert exact_module._HIGHS_LOCK.acquire(blocking=False)
+    exact_module._HIGHS_LOCK.release()
+
+
 def test_mip_gap_is_passed_to_highs_and_reported_honestly() -> None:
     mission = _hard_mission(1)
     result = solve_exact(mission, mip_gap=0.05, time_limit=5)
     assert_honest(mission, result, mip_gap=0.05)
     assert result.status is ExactStatus.OPTIMAL  # a 5% gap is quick to prove here
     assert 0 < result.gap <= 0.05  # HiGHS stopped early, and the result says so
+
+
+# ----------------------------------------------------------- huge and tiny utilities
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+def test_utilities_near_the_float_maximum_solve_exactly(formulation: str) -> None:
+    # Two robots: t0 and t1 need one each, t2 needs both; {t0, t1} beats {t2}.  HiGHS
+    # takes costs from 1e20 up for infinite: unscaled, this crashed.
+    mission = Mission.from_arrays([[1], [1]], [[1], [1], [2]], [1e308, 5e307, 2e307])
+    result = solve_exact(mission, formulation=formulation)
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.OPTIMAL
+    assert result.utility == math.fsum([1e308, 5e307]) == brute_force_optimum(mission)
+    assert (result.bound, result.gap) == (result.utility, 0.0)
+    assert result.assignment.task.tolist() == [0, 1]
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+@pytest.mark.parametrize("utilities", [[1e308, 5e307], [5e307, 1e308]])
+def test_one_robot_picks_the_larger_huge_utility(formulation: str, utilities: list) -> None:
+    mission = Mission.from_arrays([[1]], [[1], [1]], utilities)
+    result = solve_exact(mission, formulation=formulation)
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.OPTIMAL
+    assert (result.utility, result.bound) == (1e308, 1e308)
+    assert result.assignment.task.tolist() == [utilities.index(1e308)]
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+def test_utilities_of_1e25_solve_the_knapsack_exactly(formulation: str) -> None:
+    # Three robots: t0 needs two, t1 and t2 one each, t3 two.  {t0, t1} = 1.6e25 beats
+    # {t0, t2}, {t3, t1} and {t1, t2}.
+    mission = Mission.from_arrays([[1], [1], [1]], [[2], [1], [1], [2]], [1e25, 6e24, 5e24, 9e24])
+    result = solve_exact(mission, formulation=formulation)
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.OPTIMAL
+    assert result.utility == math.fsum([1e25, 6e24]) == brute_force_optimum(mission)
+    assert (result.bound, result.gap) == (result.utility, 0.0)
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+def test_tiny_utilities_alone_are_not_lost(formulation: str) -> None:
+    # One robot, tasks worth 1e-300 and 3e-300: below every HiGHS tolerance unscaled
+    # (it used to report "optimal" with nothing done).
+    mission = Mission.from_arrays([[1]], [[1], [1]], [1e-300, 3e-300])
+    result = solve_exact(mission, formulation=formulation)
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.OPTIMAL
+    assert (result.utility, result.bound, result.gap) == (3e-300, 3e-300, 0.0)
+    assert result.assignment.task.tolist() == [1]
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+def test_tiny_utilities_beside_one_pass_the_checks(formulation: str) -> None:
+    # Two robots, one slot each for tasks worth 1, 1e-300 and 3e-300: the optimum,
+    # 1 + 3e-300, is 1.0 in floating point; HiGHS cannot tell the tiny ones apart.
+    mission = Mission.from_arrays([[1], [1]], [[1], [1], [1]], [1.0, 1e-300, 3e-300])
+    result = solve_exact(mission, formulation=formulation)
+    assert_honest(mission, result)
+    assert result.status is ExactStatus.OPTIMAL
+    assert (result.utility, result.bound, result.gap) == (1.0, 1.0, 0.0)
+    assert result.assignment.task[0] == 0 or result.assignment.task[1] == 0
+
+
+@settings(max_examples=30)
+@given(mission=small_missions(max_robots=10, max_tasks=6), exponent=st.integers(-1060, 1000))
+def test_scaling_all_utilities_by_a_power_of_two_scales_the_optimum(
+    mission: Mission, exponent: int
+) -> None:
+    # From subnormal to near-overflow utilities (the sum stays below 2**1010): the
+    # optimum found is the brute force's, to the precision of the unscaled test.
+    scaled = Mission.from_arrays(
+        mission.capabilities, mission.requirements, np.ldexp(mission.utilities, exponent)
+    )
+    expected = brute_force_optimum(scaled)
+    for formulation in FORMULATIONS:
+        result = solve_exact(scaled, formulation=formulation)
+        assert_honest(scaled, result)
+        assert result.status is ExactStatus.OPTIMAL
+        assert result.utility == pytest.approx(expected, rel=1e-9, abs=0), formulation
+        assert result.bound == pytest.approx(expected, rel=1e-9, abs=0), formulation
+
+
+@pytest.mark.parametrize(
+    "top", [5e-324, 1e-300, 0.75, 1.0, 50.0, 1e6, 1e25, 1.7976931348623157e308]
+)
+def test_highs_sees_the_largest_utility_between_2_19_and_2_20_exactly(top: float) -> None:
+    utilities = np.array([top, top / 3, 5e-324])
+    shift = exact_module._shift(utilities)
+    scaled = exact_module._scaled(utilities, shift)
+    assert 2.0**19 <= scaled.max() < 2.0**20
+    assert exact_module._unscale(float(scaled[0]), shift) == top  # only exponents change
+    assert exact_module._unscale(1e300, -100) == math.inf  # overflow is inf, not an error
 
 
 # ------------------------------------------------------------------ status and shapes
