@@ -19,7 +19,7 @@ from typing import Any
 from cfopt._jsonio import check_folder
 from cfopt._progress import Progress
 from cfopt.errors import MissionError, plural
-from cfopt.report import Report, check_free, figure_names_for, load_trials, write_report
+from cfopt.report import Report, check_free, load_trials, report_names_for, write_report
 from cfopt.store import ResultStore, store_lock
 
 __all__ = [
@@ -250,7 +250,7 @@ def run_audit(
     cells = tuple(cells) if cells is not None else (quick_grid() if quick else audit_grid())
     missions = missions or (QUICK_MISSIONS if quick else AUDIT_MISSIONS)
     budget = budget or (QUICK_BUDGET if quick else AUDIT_BUDGET)
-    report_files = [] if claims_only else [*_report_names(), *figure_names_for(cells), "claims.csv"]
+    report_files = [] if claims_only else report_names_for(cells, claims=True)
     _check_directory(directory, report_files, force)
     progress = Progress.coerce(progress)
     directory.mkdir(exist_ok=True)
@@ -326,9 +326,3 @@ def run_audit(
     return AuditResult(
         directory, verdicts, report, outcome, claim_files, tuple(claims.failures), claims.reused
     )
-
-
-def _report_names() -> list[str]:
-    from cfopt.report import REPORT_FILES
-
-    return list(REPORT_FILES)

@@ -355,6 +355,19 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         default="index",
         help="robot order each round: index (default, the seed's simulator) or seeded random",
     )
+    sub.add_argument(
+        "--network",
+        default=None,
+        metavar="SPEC",
+        help=_NETWORK_HELP,
+    )
+    sub.add_argument(
+        "--time-limit",
+        type=_positive_number,
+        default=None,
+        metavar="SEC",
+        help="with --network: simulated seconds after which the run is cut (default 3600)",
+    )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
 
     _add_output_options(sub)
@@ -364,9 +377,14 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         from heuristics.registry import get_algorithm
 
         algorithm = get_algorithm(args.algorithm)
+        if args.network is None and args.time_limit is not None:
+            raise MissionError("--time-limit: only for distributed runs (give --network)")
         m = load_mission(args.mission)
         _check_output_free(args)
-        result = algorithm(m, seed=args.seed, order=args.order)
+        if args.network is not None:
+            result = _simulated(args, m)
+        else:
+            result = algorithm(m, seed=args.seed, order=args.order)
         a = result.assignment
         out = result.to_dict(m)
         assignment = out.pop("assignment")
@@ -392,10 +410,60 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
             f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
             f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
         ]
+        if result.network is not None:
+            summary += _network_summary(result.network)
         _print_result(summary, assignment_json, args)
         return EXIT_OK
 
     return run
+
+
+_NETWORK_HELP = (
+    "run the algorithm's agents on a simulated network: a topology (complete, ring, grid, "
+    "'geometric radius=R', 'er p=P', 'smallworld k=K p=P', 'file=PATH' of robot-id pairs) "
+    "then key=value tokens: latency=constant:D|uniform:A:B|exponential:MEAN|"
+    "lognormal:MEDIAN:SIGMA (durations with ns, us, ms or s; default constant:0ms), "
+    "loss=P or loss=ge:P_GOOD_TO_BAD:P_BAD_TO_GOOD:LOSS_IN_BAD (default 0), "
+    "medium=broadcast|unicast, period=D (clock, default 10ms), jitter=F (default 0.1), "
+    "sync=true (lock-step clocks); or a cfopt.network/1 JSON file. Example: "
+    "--network 'geometric radius=0.25 latency=uniform:1ms:20ms loss=0.05'"
+)
+
+
+def _simulated(args: argparse.Namespace, mission: Mission) -> Any:
+    from heuristics.simulate import DEFAULT_TIME_LIMIT, simulate
+
+    if args.order != "index":
+        raise MissionError("--order: a distributed run has no robot order (the clocks decide)")
+    return simulate(
+        mission,
+        args.algorithm,
+        args.network,
+        seed=args.seed,
+        time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
+    )
+
+
+def _network_summary(report: Any) -> list[str]:
+    lost = report.losses / max(report.receptions + report.losses, 1)
+    if report.cut:
+        ending = f"cut at the time limit ({report.simulated_seconds:g} s simulated)"
+    else:
+        ending = f"robots stopped by {report.simulated_seconds:.3f} s simulated"
+    if report.converged:
+        state = f"converged at {report.convergence_seconds:.3f} s"
+    elif report.beliefs_agree:
+        state = "beliefs agree but are not final"
+    else:
+        state = "beliefs disagree: each robot performs its own belief's slot"
+    return [
+        f"network: {report.topology} (d_G {report.diameter}), latency {report.latency}, "
+        f"loss {report.loss}, {report.medium}",
+        f"  {ending}; {state}",
+        f"  {plural(report.transmissions, 'transmission')}, "
+        f"{plural(report.receptions, 'reception')}, {lost:.1%} lost, "
+        f"{report.bytes / 1e6:.3f} MB, {plural(report.proposals, 'proposal')}",
+    ]
 
 
 def _check_output_free(args: argparse.Namespace) -> None:
@@ -538,9 +606,11 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         "--grid",
         default=None,
         metavar="NAME|FILE",
-        help="paper (default: the seed's 32 cells), paper-distributed (100 and 500 robots), "
-        "audit, quick, or a .toml/.json grid file whose keys are these options' names "
-        "(robots, percent_tasks, compositions, load, missions) and/or [[cells]] tables",
+        help="paper (default: the seed's 32 cells), paper-distributed (the seed's distributed "
+        "evaluation: 100 and 500 robots as agents on a complete network, 1-10 ms latency, "
+        "1%% loss), audit, quick, or a .toml/.json grid file whose keys are these options' "
+        "names (robots, percent_tasks, compositions, load, network, missions) and/or "
+        "[[cells]] tables",
     )
     sub.add_argument(
         "--robots",
@@ -567,6 +637,14 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         metavar="L[,L...]",
         help="mission loads (1 achievable, >1 over-subscribed); for paper, "
         "paper-distributed and custom grids (default: 1)",
+    )
+    sub.add_argument(
+        "--network",
+        action="append",
+        default=None,
+        metavar="SPEC",
+        help="with --robots: run the cells distributed on this simulated network (see "
+        "'cfopt run --help' for SPEC); repeat for several networks",
     )
     sub.add_argument(
         "--missions",
@@ -615,8 +693,10 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         from cfopt._progress import Progress
 
         custom = args.robots is not None
-        if not custom and (args.percent_tasks or args.compositions):
-            raise MissionError("--percent-tasks and --compositions need --robots (a custom grid)")
+        if not custom and (args.percent_tasks or args.compositions or args.network):
+            raise MissionError(
+                "--percent-tasks, --compositions and --network need --robots (a custom grid)"
+            )
         if custom and args.grid is not None:
             raise MissionError("give either --grid or --robots (a custom grid), not both")
         missions = args.missions
@@ -626,6 +706,7 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
                 args.percent_tasks or (1.0, 10.0, 50.0),
                 args.compositions or ((5, 1), (5, 5), (10, 1), (10, 5)),
                 args.load or (1.0,),
+                args.network or (None,),
             )
             missions = missions or 5
         else:
@@ -658,6 +739,11 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
                 f"{outcome.store}: {plural(outcome.completed, 'trial')} run, "
                 f"{outcome.skipped} already stored, {len(outcome.failures)} failed, of "
                 f"{outcome.total} ({plural(len(sweep.cells), 'cell')} x "
+                f"{plural(sweep.missions, 'mission')} x the exact solve and "
+                f"{plural(len(sweep.heuristics), 'heuristic')}, distributed cells only those "
+                f"with agents), {outcome.seconds:.1f} s"
+                if any(c.network is not None for c in sweep.cells)
+                else f"{outcome.total} ({plural(len(sweep.cells), 'cell')} x "
                 f"{plural(sweep.missions, 'mission')} x "
                 f"{plural(len(sweep.algorithms or ()), 'algorithm')}), {outcome.seconds:.1f} s"
             )

@@ -51,7 +51,7 @@ import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +61,7 @@ from cfopt._limits import require_memory
 from cfopt._progress import Progress
 from cfopt._workers import default_workers, make_executor, stop_executor
 from cfopt.errors import MissionError, describe, parameter_error
-from cfopt.generate import GridCell, paper_distributed_grid, paper_grid
+from cfopt.generate import SEED_NETWORK, GridCell, paper_distributed_grid, paper_grid
 from cfopt.store import EXACT, ResultStore, Trial, store_lock
 
 __all__ = [
@@ -75,6 +75,7 @@ __all__ = [
     "audit_grid",
     "code_version",
     "describe_version",
+    "distributed_grid",
     "grid_from_file",
     "make_executor",
     "named_grid",
@@ -96,19 +97,34 @@ _BYTES_PER_TRIAL = 400
 
 
 # --------------------------------------------------------------------------- grids
+def distributed_grid(load: float = 1.0) -> tuple[GridCell, ...]:
+    """The seed's distributed evaluation: its 20 cells of 100 and 500 robots, run as agents
+    on :data:`cfopt.generate.SEED_NETWORK` (complete, 1-10 ms latency, 1 % loss).
+
+    >>> cells = distributed_grid()
+    >>> len(cells), cells[0].network
+    (20, 'complete latency=uniform:1ms:10ms loss=0.01')
+    """
+    return tuple(paper_distributed_grid(load, network=SEED_NETWORK))
+
+
 def audit_grid() -> tuple[GridCell, ...]:
-    """The grid of ``cfopt audit``: the seed's distributed grid plus over-subscription.
+    """The grid of ``cfopt audit``: the seed's distributed grid, centralized and
+    distributed, plus over-subscription.
 
     The seed's 20 cells with 100 and 500 robots (every composition and percent-task
-    level, achievable missions), and the 100-robot cells again at load 1.25
-    (over-subscribed: not every task can be done, only the ILP knows the optimum).
+    level, achievable missions), the 100-robot cells again at load 1.25 (over-subscribed:
+    not every task can be done, only the ILP knows the optimum), and the 100-robot
+    achievable cells on the seed's network (distributed runs of GRAPE-S, Pair-GRAPE-S
+    and SDA).
 
     >>> cells = audit_grid()
-    >>> len(cells), sorted({c.load for c in cells})
-    (28, [1.0, 1.25])
+    >>> len(cells), sorted({c.load for c in cells}), sum(c.network is not None for c in cells)
+    (36, [1.0, 1.25], 8)
     """
     over = [c for c in paper_distributed_grid(load=1.25) if c.robots == 100]
-    return (*paper_distributed_grid(), *over)
+    distributed = [c for c in distributed_grid() if c.robots == 100]
+    return (*paper_distributed_grid(), *over, *distributed)
 
 
 def quick_grid() -> tuple[GridCell, ...]:
@@ -118,18 +134,26 @@ def quick_grid() -> tuple[GridCell, ...]:
 
     >>> cells = quick_grid()
     >>> len(cells), sorted({c.load for c in cells}), {c.robots for c in cells}
-    (12, [1.0, 1.25], {100})
+    (14, [1.0, 1.25], {100})
+
+    Plus two distributed cells (100 robots, 10 % tasks, 5:1 and 10:5, on the seed's
+    network).
     """
     achievable = [c for c in paper_grid() if c.robots == 100]
     over = [c for c in paper_grid(load=1.25) if c.robots == 100 and c.percent_tasks == 10]
-    return (*achievable, *over)
+    distributed = [
+        c
+        for c in distributed_grid()
+        if c.robots == 100 and c.percent_tasks == 10 and c.composition in ("5:1", "10:5")
+    ]
+    return (*achievable, *over, *distributed)
 
 
 #: Named grids: name -> (cells factory taking a load or None, default missions per cell,
 #: whether ``load`` may be changed).
 GRIDS: dict[str, tuple[Callable[[], Sequence[GridCell]], int, bool]] = {
     "paper": (paper_grid, 25, True),
-    "paper-distributed": (paper_distributed_grid, 25, True),
+    "paper-distributed": (distributed_grid, 25, True),
     "audit": (audit_grid, 4, False),
     "quick": (quick_grid, 2, False),
 }
@@ -163,18 +187,25 @@ def product_grid(
     percent_tasks: Sequence[float] = _PERCENTS,
     compositions: Sequence[tuple[int, int]] = _COMPOSITIONS,
     loads: Sequence[float] = (1.0,),
+    networks: Sequence[str | None] = (None,),
 ) -> tuple[GridCell, ...]:
-    """Every combination of the given values (robots outermost, load innermost).
+    """Every combination of the given values (robots outermost, network innermost).
+
+    ``networks`` are network specs (``None``: centralized); each is checked and put in
+    canonical form.
 
     >>> [c.label for c in product_grid([20], [10], [(5, 2)], [1.0, 1.25])]
     ['n=20 p=10% 5:2 load=1', 'n=20 p=10% 5:2 load=1.25']
+    >>> product_grid([20], [10], [(5, 2)], networks=["ring  loss=0.1"])[0].network
+    'ring loss=0.1'
     """
     return tuple(
-        GridCell(n, p, s, k, load)
+        _canonical(GridCell(n, p, s, k, load, network))
         for n in robots
         for p in percent_tasks
         for s, k in compositions
         for load in loads
+        for network in networks
     )
 
 
@@ -199,8 +230,10 @@ def parse_composition(text: str) -> tuple[int, int]:
     return s, k
 
 
-_FILE_KEYS = ("robots", "percent_tasks", "compositions", "load", "loads", "missions", "cells")
-_CELL_KEYS = ("robots", "percent_tasks", "service_types", "services_per_robot", "load")
+_FILE_KEYS = (
+    "robots", "percent_tasks", "compositions", "load", "loads", "network", "missions", "cells",
+)  # fmt: skip
+_CELL_KEYS = ("robots", "percent_tasks", "service_types", "services_per_robot", "load", "network")
 
 
 def grid_from_file(path: str | os.PathLike[str]) -> tuple[tuple[GridCell, ...], int | None]:
@@ -251,7 +284,7 @@ def resolve_grid(
 
     >>> cells, missions = resolve_grid("quick")
     >>> len(cells), missions
-    (12, 2)
+    (14, 2)
     """
     if grid in GRIDS:
         return named_grid(grid, loads), GRIDS[grid][1]
@@ -265,6 +298,18 @@ def resolve_grid(
     if loads:
         raise parameter_error("load", "a grid file sets its own loads")
     return grid_from_file(grid)
+
+
+def _networks(value: Any) -> list[str | None]:
+    """A grid file's ``network``: absent (centralized), one spec, or a list of specs."""
+    if value is None:
+        return [None]
+    items = value if isinstance(value, list) else [value]
+    if not items or not all(isinstance(v, str) and v.strip() for v in items):
+        raise MissionError(
+            f"network: must be a network spec or a list of them, got {describe(value)}"
+        )
+    return list(items)
 
 
 def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
@@ -283,7 +328,7 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
     if "load" in data and "loads" in data:
         raise MissionError('loads: give "load" or "loads" (the same key), not both')
     cells: list[GridCell] = []
-    product_keys = ("robots", "percent_tasks", "compositions", "load", "loads")
+    product_keys = ("robots", "percent_tasks", "compositions", "load", "loads", "network")
     if any(k in data for k in product_keys):
         if "robots" not in data:
             raise MissionError('robots: required for a product grid (missing key "robots")')
@@ -300,6 +345,7 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
                     values("percent_tasks", list(_PERCENTS)),
                     comps,
                     values("loads" if "loads" in data else "load", [1.0]),
+                    _networks(data.get("network")),
                 )
             )
         except MissionError as exc:  # the file's keys, not the command line's flags
@@ -316,7 +362,7 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
         if missing:
             raise MissionError(f'cells[{i}]: missing key "{missing[0]}"')
         try:
-            cells.append(GridCell(**entry))
+            cells.append(_canonical(GridCell(**entry)))
         except MissionError as exc:
             raise MissionError(f"cells[{i}].{exc}") from None
     if not cells:
@@ -409,6 +455,31 @@ def _percent(part: float, whole: float) -> float:
     return 100.0 * part / whole
 
 
+def _run_heuristic(cell: GridCell, algorithm: str, mission: Any, seed: int) -> Any:
+    if cell.network is not None:
+        from heuristics.simulate import simulate
+
+        return simulate(mission, algorithm, cell.network, seed=seed)
+    from heuristics.registry import get_algorithm
+
+    return get_algorithm(algorithm)(mission, seed=seed)
+
+
+def _network_fields(report: Any) -> dict[str, Any]:
+    if report is None:
+        return {}
+    return {
+        "sim_seconds": report.simulated_seconds,
+        "convergence_seconds": report.convergence_seconds,
+        "transmissions": report.transmissions,
+        "receptions": report.receptions,
+        "losses": report.losses,
+        "converged": report.converged,
+        "beliefs_agree": report.beliefs_agree,
+        "cut": report.cut,
+    }
+
+
 def run_trial(
     cell: GridCell,
     mission_index: int,
@@ -459,10 +530,9 @@ def run_trial(
     if algorithm == EXACT:
         assignment, seconds = result.assignment, result.seconds
     else:
-        from heuristics.registry import get_algorithm
-
-        run = get_algorithm(algorithm)(mission, seed=mission_seed)
+        run = _run_heuristic(cell, algorithm, mission, mission_seed)
         assignment, seconds = run.assignment, run.seconds
+        counts.update(_network_fields(run.network))
         counts.update(
             iterations=run.iterations,
             rounds=run.rounds,
@@ -486,6 +556,7 @@ def run_trial(
         tasks=mission.n_tasks,
         total_utility=mission.total_utility,
         algorithm=algorithm,
+        network=cell.network,
         code_version=version or code_version(),
         utility=utility,
         optimum=best.utility,
@@ -504,6 +575,16 @@ def run_trial(
     )
 
 
+def _canonical(cell: GridCell) -> GridCell:
+    """The cell with its network spec in canonical form (validated: bad input raises)."""
+    if cell.network is None:
+        return cell
+    from heuristics.network import NetworkSpec
+
+    text = NetworkSpec.parse(cell.network).to_text()
+    return cell if text == cell.network else replace(cell, network=text)
+
+
 # -------------------------------------------------------------------------- sweeps
 @dataclass(frozen=True)
 class Sweep:
@@ -516,7 +597,9 @@ class Sweep:
         Missions per cell: indices ``0 .. missions-1`` of :meth:`GridCell.mission`.
     algorithms : sequence of str, optional
         Heuristics (registry names); default: every registered one.  The exact solve
-        (``"exact"``) always runs: it is the optimum every trial is scored against.
+        (``"exact"``) always runs: it is the optimum every trial is scored against.  A
+        distributed cell (one with a ``network``) runs only the algorithms that have
+        distributed agents (:data:`heuristics.simulate.DISTRIBUTED`).
     base_seed : int, default 0
     time_limit : float or None, default 60
         Seconds per exact solve (HiGHS); an optimum not proven by then is marked
@@ -533,7 +616,7 @@ class Sweep:
         cells = tuple(self.cells)
         if not cells or not all(isinstance(c, GridCell) for c in cells):
             raise MissionError("cells: must be a non-empty sequence of cfopt.GridCell")
-        object.__setattr__(self, "cells", tuple(dict.fromkeys(cells)))
+        object.__setattr__(self, "cells", tuple(dict.fromkeys(_canonical(c) for c in cells)))
         for name, low in (("missions", 1), ("base_seed", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -564,10 +647,22 @@ class Sweep:
         """The algorithms other than ``exact``."""
         return tuple(a for a in self.algorithms or () if a != EXACT)
 
+    def algorithms_for(self, cell: GridCell) -> tuple[str, ...]:
+        """The algorithms run on ``cell`` (``exact`` first)."""
+        if cell.network is None:
+            return tuple(self.algorithms or ())
+        from heuristics.simulate import DISTRIBUTED
+
+        return tuple(a for a in self.algorithms or () if a == EXACT or a in DISTRIBUTED)
+
+    def heuristics_for(self, cell: GridCell) -> tuple[str, ...]:
+        """The algorithms other than ``exact`` run on ``cell``."""
+        return tuple(a for a in self.algorithms_for(cell) if a != EXACT)
+
     @property
     def size(self) -> int:
-        """Number of trials: cells x missions x algorithms (exact included)."""
-        return len(self.cells) * self.missions * len(self.algorithms or ())
+        """Number of trials: cells x missions x their algorithms (exact included)."""
+        return self.missions * sum(len(self.algorithms_for(c)) for c in self.cells)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description (stored with each sweep for provenance)."""
@@ -766,8 +861,9 @@ class _SweepRun:
         self.optima = db.optima(self.version)
         for cell, index in itertools.product(sweep.cells, range(sweep.missions)):
             seed = cell.mission_seed(index, sweep.base_seed)
-            missing = [a for a in sweep.algorithms or () if (cell.label, seed, a) not in self.done]
-            self.skipped += len(sweep.algorithms or ()) - len(missing)
+            wanted = sweep.algorithms_for(cell)
+            missing = [a for a in wanted if (cell.label, seed, a) not in self.done]
+            self.skipped += len(wanted) - len(missing)
             if missing:
                 self.todo.append((cell, index))
                 self.to_run += len(missing)
@@ -799,7 +895,7 @@ class _SweepRun:
 
     def queue_heuristics(self, cell: GridCell, index: int, best: Any) -> None:
         seed = cell.mission_seed(index, self.sweep.base_seed)
-        for algorithm in self.sweep.heuristics:
+        for algorithm in self.sweep.heuristics_for(cell):
             if (cell.label, seed, algorithm) not in self.done:
                 self.ready.append((cell, index, algorithm, best))
 
@@ -835,7 +931,7 @@ class _SweepRun:
         if exc is not None:
             self.fail(cell.label, seed, algorithm, _format_failure(exc))
             if algorithm == EXACT:  # no optimum: the mission's heuristics cannot be scored
-                for name in self.sweep.heuristics:
+                for name in self.sweep.heuristics_for(cell):
                     if (cell.label, seed, name) not in self.done:
                         self.fail(cell.label, seed, name, "not run: the exact solve failed")
             return

@@ -25,6 +25,7 @@ from cfopt.mission import MAX_COUNT, Mission
 
 __all__ = [
     "PAPER_MISSIONS_PER_CELL",
+    "SEED_NETWORK",
     "GridCell",
     "generate_mission",
     "generate_with_witness",
@@ -282,6 +283,10 @@ def _generator_record(n: int, p: float, s: int, k: int, load: float, seed: SeedL
 class GridCell:
     """One combination of the seed's independent variables.
 
+    ``network`` (a network spec, see ``cfopt run --help``) makes it a distributed cell:
+    its heuristics run as agents on that simulated network.  The missions do not depend
+    on it: a distributed cell has the same missions as its centralized twin.
+
     Examples
     --------
     >>> cell = GridCell(robots=100, percent_tasks=10, service_types=10, services_per_robot=5)
@@ -296,11 +301,16 @@ class GridCell:
     service_types: int
     services_per_robot: int
     load: float = 1.0
+    network: str | None = None
 
     def __post_init__(self) -> None:
         _check_parameters(
             self.robots, self.percent_tasks, self.service_types, self.services_per_robot, self.load
         )
+        if self.network is not None and (not isinstance(self.network, str) or not self.network):
+            raise parameter_error(
+                "network", f"must be a network spec (text) or None, got {describe(self.network)}"
+            )
 
     @property
     def composition(self) -> str:
@@ -309,8 +319,9 @@ class GridCell:
 
     @property
     def label(self) -> str:
-        """A short human-readable name."""
-        return f"n={self.robots} p={self.percent_tasks:g}% {self.composition} load={self.load:g}"
+        """A short human-readable name (with ``net=SPEC`` for a distributed cell)."""
+        label = f"n={self.robots} p={self.percent_tasks:g}% {self.composition} load={self.load:g}"
+        return label if self.network is None else f"{label} net={self.network}"
 
     def mission_seed(self, index: int, base_seed: int = 0) -> int:
         """The integer seed of this cell's ``index``-th mission (``cfopt generate --seed``)."""
@@ -348,9 +359,17 @@ _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))
 _PERCENTS = (1, 10, 50)
 
 
-def _grid(sizes: tuple[int, ...], load: float) -> list[GridCell]:
+#: The network of the seed's distributed evaluation, as cfopt models it.  The seed ran every
+#: robot as an MPI process on a cluster, "fully-connected", with non-blocking (UDP-like)
+#: messages that were "not instantaneous"; it gives no latency or loss figures.  cfopt's
+#: reading: a complete topology, latencies uniform in 1-10 ms, 1 % independent loss, one
+#: broadcast transmission per send, 10 ms clocks.
+SEED_NETWORK = "complete latency=uniform:1ms:10ms loss=0.01"
+
+
+def _grid(sizes: tuple[int, ...], load: float, network: str | None = None) -> list[GridCell]:
     return [
-        GridCell(n, p, s, k, load)
+        GridCell(n, p, s, k, load, network)
         for n in sizes
         for p in _PERCENTS
         if p != 1 or n > 100  # the seed used 1% only when it gives more than one task
@@ -367,10 +386,13 @@ def paper_grid(load: float = 1.0) -> list[GridCell]:
     return _grid((100, 500, 1000), load)
 
 
-def paper_distributed_grid(load: float = 1.0) -> list[GridCell]:
+def paper_distributed_grid(load: float = 1.0, network: str | None = None) -> list[GridCell]:
     """The seed's distributed grid (collectives of 100 and 500 robots): 20 cells.
 
-    >>> len(paper_distributed_grid())
-    20
+    ``network`` makes the cells distributed (:data:`SEED_NETWORK` for the seed's own runs);
+    without it they are the same missions for the centralized engines.
+
+    >>> len(paper_distributed_grid()), paper_distributed_grid(network=SEED_NETWORK)[0].label
+    (20, 'n=100 p=10% 5:1 load=1 net=complete latency=uniform:1ms:10ms loss=0.01')
     """
-    return _grid((100, 500), load)
+    return _grid((100, 500), load, network)

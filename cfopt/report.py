@@ -40,7 +40,7 @@ import time
 import warnings
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -96,8 +96,39 @@ METRICS: dict[str, Metric] = {
         Metric("percent_total", "Percent of total utility", "%", lambda t: t.percent_total),
         Metric("seconds", "Runtime", "s", lambda t: t.seconds, False, True),
         Metric("megabytes", "Total communication", "MB", _megabytes, True, True),
+        Metric("sim_seconds", "Simulated runtime", "s", lambda t: t.sim_seconds, True, True),
     )
 }
+#: Metrics only distributed trials have (tables and plots only when there are some).
+DISTRIBUTED_METRICS = ("sim_seconds",)
+
+
+def _metrics(distributed: bool) -> list[str]:
+    return [m for m in METRICS if distributed or m not in DISTRIBUTED_METRICS]
+
+
+def network_tags(trials: Sequence[Trial]) -> dict[str, str]:
+    """Network spec -> its short tag in tables: ``distributed``, or ``net 1``, ``net 2``...
+    when the trials ran on several networks."""
+    networks = sorted({t.network for t in trials if t.network is not None})
+    if len(networks) == 1:
+        return {networks[0]: "distributed"}
+    return {spec: f"net {k}" for k, spec in enumerate(networks, 1)}
+
+
+def label_variants(trials: Sequence[Trial]) -> list[Trial]:
+    """Distributed trials under their own algorithm names, so that every table keeps them
+    apart from the centralized runs of the same algorithm: ``grape-s (distributed)``, or
+    ``grape-s (net 2)`` when the trials ran on several networks (see
+    :func:`network_tags`).  The exact solve is the same on every cell and keeps its name."""
+    tags = network_tags(trials)
+    out = []
+    for t in trials:
+        if t.network is None or t.algorithm == EXACT or " (" in t.algorithm:
+            out.append(t)
+        else:
+            out.append(replace(t, algorithm=f"{t.algorithm} ({tags[t.network]})"))
+    return out
 
 
 def _values(trials: Iterable[Trial], metric: Metric) -> list[float]:
@@ -546,22 +577,42 @@ def _figure_name(metric: str, load: float) -> str:
     return f"fig_{metric}_load{load:g}".replace(".", "_") + ".png"
 
 
-_FIGURE_METRICS = ("percent_optimum", "seconds", "megabytes")
+_FIGURE_METRICS = ("percent_optimum", "seconds", "megabytes", "sim_seconds")
+
+
+def _figures(loads: Iterable[tuple[float, bool]]) -> list[tuple[str, float, str]]:
+    """``(metric, load, file)`` for each load, given whether it has distributed trials."""
+    return [
+        (name, load, _figure_name(name, load))
+        for load, distributed in sorted(set(loads))
+        for name in _FIGURE_METRICS
+        if distributed or name not in DISTRIBUTED_METRICS
+    ]
 
 
 def _figure_names(trials: Sequence[Trial]) -> list[tuple[str, float, str]]:
-    return [
-        (name, load, _figure_name(name, load))
-        for load in sorted({t.load for t in trials})
-        for name in _FIGURE_METRICS
-    ]
+    loads = {t.load for t in trials}
+    return _figures(
+        (load, any(t.network is not None for t in trials if t.load == load)) for load in loads
+    )
 
 
 def figure_names_for(cells: Iterable[Any]) -> list[str]:
     """The figure files a report of these grid cells' trials will have."""
-    return [
-        _figure_name(m, load) for load in sorted({c.load for c in cells}) for m in _FIGURE_METRICS
-    ]
+    cells = list(cells)
+    loads = {c.load for c in cells}
+    flagged = (
+        (load, any(c.network is not None for c in cells if c.load == load)) for load in loads
+    )
+    return [f for _, _, f in _figures(flagged)]
+
+
+def report_names_for(cells: Iterable[Any], claims: bool = False) -> list[str]:
+    """Every file a report of these grid cells' trials will have (for the audit's check)."""
+    cells = list(cells)
+    distributed = any(c.network is not None for c in cells)
+    names = _report_files(distributed) + figure_names_for(cells)
+    return [*names, "claims.csv"] if claims else names
 
 
 def _percent_axis(ax: Any, values: Sequence[float]) -> None:
@@ -762,6 +813,10 @@ def summary_text(trials: Sequence[Trial]) -> str:
             )
         heading = f"{_load_label(load)}: {plural(len(missions_at[load]), 'mission')}"
         parts.append(heading + "\n" + format_table(header, body))
+    tags = network_tags(trials)
+    if tags:
+        listed = "; ".join(f"{tag}: {spec}" for spec, tag in tags.items())
+        parts.append(textwrap.fill(f"Distributed runs on the simulated network ({listed}).", 100))
     if any(not t.optimum_proven for t in trials):
         parts.append(
             "† some optima were not proven (ILP time limit): percentages are of the best found"
@@ -873,19 +928,16 @@ def gap_report(trials: Sequence[Trial], version: str = "") -> dict[str, Any]:
     }
 
 
-REPORT_FILES = (
-    "report.md",
-    "report.html",
-    "trials.csv",
-    "summary.csv",
-    "statistics.csv",
-    *(f"table_{m}.csv" for m in METRICS),
-)
+def _report_files(distributed: bool) -> list[str]:
+    names = ["report.md", "report.html", "trials.csv", "summary.csv", "statistics.csv"]
+    names += [f"table_{m}.csv" for m in _metrics(distributed)]
+    return [*names, "distributed.csv"] if distributed else names
 
 
 def planned_files(trials: Sequence[Trial], claims: Sequence[Any] | None = None) -> list[str]:
     """Names :func:`write_report` writes into its directory for these trials."""
-    names = list(REPORT_FILES) + [f for _, _, f in _figure_names(trials)]
+    distributed = any(t.network is not None for t in trials)
+    names = _report_files(distributed) + [f for _, _, f in _figure_names(trials)]
     if claims is not None:
         names.append("claims.csv")
     return names
@@ -899,9 +951,12 @@ def check_free(directory: str | os.PathLike[str], names: Iterable[str]) -> None:
     taken = [n for n in names if (directory / n).exists()]
     if taken:
         shown = ", ".join(taken[:3]) + (f" and {len(taken) - 3} more" if len(taken) > 3 else "")
+        where = os.fspath(directory)
         raise MissionError(
-            f"{os.fspath(directory)}: already holds a report ({shown}); "
-            "pass --force (force=True) to replace those files, or choose another directory"
+            f"{where}: already holds a report ({shown}); pass force=True to replace those "
+            "files, or choose another directory",
+            cli=f"{where}: already holds a report ({shown}); pass --force to replace those "
+            "files, or choose another directory",
         )
 
 
@@ -947,6 +1002,7 @@ def write_report(
     """
     if not trials:
         raise MissionError("no trials to report")
+    trials = label_variants(trials)
     directory = Path(directory)
     names = planned_files(trials, claims)
     check_folder(directory)
@@ -1035,11 +1091,14 @@ def _write_files(
     results = statistics(trials)
     stats_header, stats_body = _statistics_table(results)
     _write_csv(directory / "statistics.csv", stats_header, stats_body, mode)
-    tables = {name: cell_table(trials, name) for name in METRICS}
+    distributed = any(t.network is not None for t in trials)
+    tables = {name: cell_table(trials, name) for name in _metrics(distributed)}
     for name, (header, rows) in tables.items():
         _write_csv(directory / f"table_{name}.csv", header, rows, mode)
     if claims is not None:
         _write_csv(directory / "claims.csv", *_claims_table(claims), mode)
+    if distributed:
+        _write_csv(directory / "distributed.csv", *distributed_table(trials), mode)
     box_plots(trials, directory)
 
     # The document, as blocks rendered twice (Markdown and HTML).
@@ -1074,6 +1133,8 @@ def _write_files(
             "algorithm's documented message model.",
         )
     )
+    if distributed:
+        blocks += _distributed_blocks(trials)
     if claims is not None:
         blocks += [("h2", "Claims of the seed paper"), ("table", _claims_table(claims))]
         if claim_files:
@@ -1087,7 +1148,8 @@ def _write_files(
                 )
             )
     figure_of = {(m, load): directory / f for m, load, f in _figure_names(trials)}
-    for name, metric in METRICS.items():
+    for name in tables:
+        metric = METRICS[name]
         blocks += [("h2", f"{metric.label} ({metric.unit}): median (min, max)")]
         blocks.append(("table", tables[name]))
         for (m, load), path in figure_of.items():
@@ -1109,6 +1171,66 @@ def _write_files(
     for name, text in (("report.md", markdown), ("report.html", page)):
         with (directory / name).open(mode, encoding="utf-8") as handle:
             handle.write(text)
+
+
+def distributed_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]:
+    """The distributed runs in the layout of the seed's Tables 3 and 4: per algorithm and
+    cell (service types, services per robot, percent tasks, collective size) the percent
+    of optimum as median (min, max), with how the runs ended, their simulated runtime and
+    their communication."""
+    header = [
+        "algorithm", "service types", "per robot", "% tasks", "robots", "load",
+        "% of optimum: median (min, max)", "optimal", "converged", "beliefs agree", "cut",
+        "simulated s: median (max)", "MB: median (max)",
+    ]  # fmt: skip
+    groups: dict[tuple[Any, ...], list[Trial]] = defaultdict(list)
+    for t in trials:
+        if t.network is not None and t.algorithm != EXACT:
+            key = (t.algorithm, t.load, t.service_types, t.services_per_robot)
+            groups[(*key, t.percent_tasks, t.robots)].append(t)
+    rows = []
+    for (algorithm, load, s, k, p, n), group in sorted(groups.items()):
+        size = len(group)
+        optimal = sum(1 for t in group if (t.percent_optimum or 0) >= 100 - 1e-9)
+        rows.append(
+            [
+                algorithm, str(s), str(k), f"{p:g}", str(n), f"{load:g}",
+                format_range(_values(group, METRICS["percent_optimum"])),
+                f"{optimal}/{size}",
+                f"{sum(bool(t.converged) for t in group)}/{size}",
+                f"{sum(bool(t.beliefs_agree) for t in group)}/{size}",
+                f"{sum(bool(t.cut) for t in group)}/{size}",
+                _median_max(_values(group, METRICS["sim_seconds"])),
+                _median_max(_values(group, METRICS["megabytes"])),
+            ]
+        )  # fmt: skip
+    return header, rows
+
+
+def _median_max(values: Sequence[float]) -> str:
+    return "-" if not values else f"{_fmt(float(np.median(values)))} ({_fmt(max(values))})"
+
+
+def _distributed_blocks(trials: Sequence[Trial]) -> list[tuple[str, Any]]:
+    tags = network_tags(trials)
+    if len(tags) == 1:
+        listed = f"`{next(iter(tags))}`"
+    else:
+        listed = "; ".join(f"{tag}: `{spec}`" for spec, tag in tags.items())
+    return [
+        ("h2", "Distributed runs"),
+        (
+            "p",
+            "Every robot ran the algorithm as its own agent in cfopt's discrete-event "
+            f"simulator, on the network(s) {listed} (topology, per-message latency and loss, "
+            "clocks); each robot performs the slot its own final belief gives it, and the run "
+            "is scored by that. Converged: all robots ended on one final belief; beliefs "
+            "agree: on one belief; cut: stopped by the simulated time limit. Simulated s: "
+            "simulated time until the robots stopped; MB: bytes transmitted on the medium. "
+            "The seed's distributed results (its Tables 3 and 4) use this layout.",
+        ),
+        ("table", distributed_table(trials)),
+    ]
 
 
 _CSS = (

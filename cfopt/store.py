@@ -29,7 +29,9 @@ __all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "store_lock"]
 
 #: The algorithm name of the exact solve's trials.
 EXACT = "exact"
-_SCHEMA_VERSION = "2"
+_SCHEMA_VERSION = "3"
+#: Older schemas this cfopt reads (and, when it writes, upgrades in place).
+_READABLE_SCHEMAS = ("2", "3")
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -83,6 +85,15 @@ class Trial:
         The seed the heuristic ran with (the mission seed).
     finished : float
         Unix time when the trial finished.
+    network : str or None
+        The network spec of a distributed trial (its cell's); ``None`` for centralized.
+    sim_seconds, convergence_seconds : float or None
+        A distributed trial's simulated seconds until its robots stopped (the time limit
+        when cut) and until they all held one final belief (``None``: never).
+    transmissions, receptions, losses : int or None
+        A distributed trial's messages on the medium.
+    converged, beliefs_agree, cut : bool or None
+        A distributed trial's ending (see :class:`heuristics.simulate.NetworkReport`).
     """
 
     cell: str
@@ -118,6 +129,15 @@ class Trial:
     pairwise_step_ran: bool | None
     algorithm_seed: int | None
     finished: float
+    network: str | None = None
+    sim_seconds: float | None = None
+    convergence_seconds: float | None = None
+    transmissions: int | None = None
+    receptions: int | None = None
+    losses: int | None = None
+    converged: bool | None = None
+    beliefs_agree: bool | None = None
+    cut: bool | None = None
 
     @property
     def optimum_proven(self) -> bool:
@@ -146,18 +166,27 @@ _BOOL_FIELDS = {
     "pairwise_stable_capped",
     "pareto_stable",
     "pairwise_step_ran",
+    "converged",
+    "beliefs_agree",
+    "cut",
 }
 _INT_FIELDS = {
     "robots", "service_types", "services_per_robot", "mission_index", "base_seed",
     "mission_seed", "tasks", "iterations", "rounds", "messages", "bytes", "work",
-    "algorithm_seed",
+    "algorithm_seed", "transmissions", "receptions", "losses",
 }  # fmt: skip
 _TRIAL_FIELDS = tuple(f.name for f in fields(Trial))
-_TEXT_FIELDS = {"cell", "algorithm", "code_version", "optimum_status"}
+_TEXT_FIELDS = {"cell", "algorithm", "code_version", "optimum_status", "network"}
 _OPTIONAL_FIELDS = {
     "percent_optimum", "iterations", "rounds", "messages", "bytes", "work",
-    "pairwise_step_ran", "algorithm_seed",
+    "pairwise_step_ran", "algorithm_seed", "network", "sim_seconds", "convergence_seconds",
+    "transmissions", "receptions", "losses", "converged", "beliefs_agree", "cut",
 }  # fmt: skip
+#: Columns added by schema 3 (distributed trials); a schema-2 store gains them, empty.
+_SCHEMA_3_COLUMNS = (
+    "network", "sim_seconds", "convergence_seconds", "transmissions", "receptions", "losses",
+    "converged", "beliefs_agree", "cut",
+)  # fmt: skip
 
 
 def _kind(name: str) -> str:
@@ -205,18 +234,18 @@ _COLUMN_TYPES = {
 }
 
 
+def _column_type(name: str) -> str:
+    if name in _COLUMN_TYPES:
+        return _COLUMN_TYPES[name]
+    if name in _INT_FIELDS or name in _BOOL_FIELDS:
+        return "INTEGER"
+    return "TEXT" if name in _TEXT_FIELDS else "REAL"
+
+
 def _schema() -> str:
     columns = []
     for name in _TRIAL_FIELDS:
-        if name in _COLUMN_TYPES:
-            kind = _COLUMN_TYPES[name]
-        elif name in _INT_FIELDS or name in _BOOL_FIELDS:
-            kind = "INTEGER"
-        elif name in _TEXT_FIELDS:
-            kind = "TEXT"
-        else:
-            kind = "REAL"
-        columns.append(f"  {name} {kind}")
+        columns.append(f"  {name} {_column_type(name)}")
     columns.append("  PRIMARY KEY (cell, mission_seed, algorithm, code_version)")
     return "CREATE TABLE IF NOT EXISTS trials (\n" + ",\n".join(columns) + "\n)"
 
@@ -310,12 +339,17 @@ class ResultStore:
                 )
         row = db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
         version = row[0] if row else None
-        if version != _SCHEMA_VERSION:
+        if version not in _READABLE_SCHEMAS:
             raise MissionError(
-                f"{name}: result store schema {version}, this cfopt reads {_SCHEMA_VERSION}"
+                f"{name}: result store schema {version}, this cfopt reads "
+                f"{', '.join(_READABLE_SCHEMAS)}"
             )
+        if version != _SCHEMA_VERSION and create:
+            self._upgrade()
         columns = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
-        missing = [f for f in _TRIAL_FIELDS if f not in columns]
+        self._columns = columns
+        later = set(_SCHEMA_3_COLUMNS) if version == "2" else set()
+        missing = [f for f in _TRIAL_FIELDS if f not in columns and f not in later]
         if missing:
             raise MissionError(
                 f"{name}: its trials table lacks the column(s) {', '.join(missing)}; the "
@@ -323,6 +357,17 @@ class ResultStore:
             )
         self._has_claims = create or "claims" in tables
         self._has_sweeps = create or "sweeps" in tables
+
+    def _upgrade(self) -> None:
+        """Schema 2 -> 3: the distributed trials' columns, empty for the stored trials."""
+        db = self._db
+        with self._transaction():
+            present = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
+            for column in _SCHEMA_3_COLUMNS:
+                if column not in present:
+                    kind = _column_type(column)
+                    db.execute(f"ALTER TABLE trials ADD COLUMN {column} {kind}")
+            db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (_SCHEMA_VERSION,))
 
     # -------------------------------------------------------------- plumbing
     def _transaction(self) -> Any:
@@ -410,7 +455,8 @@ class ResultStore:
 
     def trials(self, version: str | None = None) -> list[Trial]:
         """Stored trials (of ``version``, or all), in a stable order, each row checked."""
-        query = f"SELECT rowid, {', '.join(_TRIAL_FIELDS)} FROM trials"
+        selected = [f if f in self._columns else f"NULL AS {f}" for f in _TRIAL_FIELDS]
+        query = f"SELECT rowid, {', '.join(selected)} FROM trials"
         args: tuple[Any, ...] = ()
         if version is not None:
             query += " WHERE code_version = ?"

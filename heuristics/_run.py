@@ -107,6 +107,11 @@ class Run:
         is two rows with the same iteration.
     options : tuple of (str, object)
         The options the run used (``order``, ``capped``, ``reward``...).
+    network : heuristics.simulate.NetworkReport or None
+        For a distributed run: the network's figures (time to termination and to
+        convergence, transmissions, receptions, losses, bytes, whether the run converged,
+        whether the robots' beliefs agree, whether it was cut); ``None`` for the
+        centralized engines.
 
     Notes
     -----
@@ -127,6 +132,7 @@ class Run:
     pairwise_step_ran: bool = False
     trajectory: npt.NDArray[np.int64] = field(default_factory=_empty_trajectory)
     options: tuple[tuple[str, Any], ...] = ()
+    network: Any = None
 
     def __post_init__(self) -> None:
         traj = np.array(self.trajectory, dtype=np.int64, copy=True).reshape(-1, 4)
@@ -181,5 +187,6 @@ class Run:
             "exchanges": self.exchanges,
             "pairwise_step_ran": self.pairwise_step_ran,
             "options": dict(self.options),
+            **({} if self.network is None else {"network": self.network.to_dict()}),
             "assignment": a.to_dict(mission)["assignment"],
         }
