@@ -16,6 +16,7 @@ from heuristics.pair_grape_s import pair_grape_s
 from heuristics.rachna import rachna_dt
 from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm, run_algorithm
 from heuristics.sda import sda
+from heuristics.simulate import simulate
 
 __all__ = [
     "ALGORITHMS",
@@ -29,4 +30,5 @@ __all__ = [
     "rachna_dt",
     "run_algorithm",
     "sda",
+    "simulate",
 ]

@@ -10,10 +10,12 @@ The kernel
 A heap of ``(time, seq, kind, payload)`` events with an ``itertools.count`` tie-breaker:
 clock ticks (one per robot per period) and the hops of direct messages.  Time is integer
 nanoseconds.  Same mission, network spec and seed: the same run, byte for byte (every
-random draw comes from generators spawned from the seed, in event order).  A heap of
-tuples beat simpy's environment by a wide margin on the 500-robot case (simpy's
-process-per-robot generators and event objects cost several microseconds per event more,
-and the run spends most of its events in ticks), so the heap it is.
+random draw comes from generators spawned from the seed, in event order).  On the seed's
+largest distributed cell (GRAPE-S, 500 robots, 50 % tasks, 10:5, the seed's network) the
+heap took 6.20 s and simpy's environment driving the same ticks 6.33 s
+(``python benchmarks/bench_distributed.py --kernels``): the kernel is a small share of a
+run, whose time goes into the robots' ticks.  The heap is kept: as fast, and no
+dependency.
 
 Messages
 --------

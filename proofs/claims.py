@@ -109,12 +109,16 @@ class Counterexample:
 
     ``algorithm`` is the registry name whose run gave ``assignment`` (``""`` when none
     did); ``detail`` says in words what is violated, e.g. the deviation a robot wants.
+    A distributed run's counterexample also has its ``network`` spec and simulator
+    ``seed`` (``cfopt run ALGORITHM MISSION --network SPEC --seed SEED`` replays it).
     """
 
     mission: Mission
     assignment: Assignment
     algorithm: str
     detail: str
+    network: str | None = None
+    seed: int | None = None
 
     @property
     def size(self) -> tuple[int, int, int]:
@@ -130,6 +134,8 @@ class Counterexample:
             "assignment": self.assignment.to_dict(self.mission),
             "algorithm": self.algorithm,
             "detail": self.detail,
+            "network": self.network,
+            "seed": self.seed,
         }
 
 
@@ -157,6 +163,8 @@ class Verdict:
                 assignment=Assignment.from_dict(mission, ce["assignment"]),
                 algorithm=ce["algorithm"],
                 detail=ce["detail"],
+                network=ce.get("network"),
+                seed=ce.get("seed"),
             )
         return cls(
             claim_id=data["id"],
@@ -1024,6 +1032,9 @@ def _build() -> dict[str, Claim]:
             sweep=_EASY,
         ),
     ]
+    from proofs.distributed import distributed_claims
+
+    claims += distributed_claims()
     return {c.id: c for c in claims}
 
 
@@ -1065,13 +1076,18 @@ def audit_claims(
 def write_counterexamples(
     verdicts: Iterable[Verdict], directory: str | Path, *, overwrite: bool = False
 ) -> list[Path]:
-    """Write ``<id>.mission.json`` and ``<id>.assignment.json`` for every failed claim.
+    """Write ``<id>.mission.json`` and ``<id>.assignment.json`` for every failed claim, and
+    ``<id>.network.json`` when the counterexample is a distributed run.
 
     Replay with ``cfopt check DIR/<id>.mission.json DIR/<id>.assignment.json`` and
-    ``cfopt run ALGORITHM DIR/<id>.mission.json`` (the algorithm is the counterexample's).
-    Existing files are not overwritten unless ``overwrite=True`` (:class:`cfopt.MissionError`
-    names the first one; nothing is written then).  Returns the paths written.
+    ``cfopt run ALGORITHM DIR/<id>.mission.json`` (the algorithm is the counterexample's;
+    a distributed one with ``--network DIR/<id>.network.json --seed SEED``).  Existing files
+    are not overwritten unless ``overwrite=True`` (:class:`cfopt.MissionError` names the
+    first one; nothing is written then); each file is written atomically.  ``directory``
+    is created if missing (its parent must exist).  Returns the paths written.
     """
+    from cfopt._jsonio import check_folder, write_text
+
     directory = Path(directory)
     plan: list[tuple[Path, str]] = []
     for v in verdicts:
@@ -1082,13 +1098,23 @@ def write_counterexamples(
         plan.append(
             (directory / f"{v.claim_id}.assignment.json", ce.assignment.to_json(ce.mission))
         )
+        if ce.network is not None:
+            from heuristics.network import NetworkSpec
+
+            spec = NetworkSpec.parse(ce.network)
+            plan.append((directory / f"{v.claim_id}.network.json", spec.to_json()))
     if not overwrite:
         for path, _ in plan:
             if path.exists():
-                raise MissionError(f"{path}: exists (use overwrite=True to replace it)")
-    directory.mkdir(parents=True, exist_ok=True)
+                raise MissionError(
+                    f"{path}: exists (use overwrite=True to replace it)",
+                    cli=f"{path}: exists (pass --force to replace it)",
+                )
+    if plan:
+        check_folder(directory)
+        directory.mkdir(exist_ok=True)
     for path, text in plan:
-        path.write_text(text, encoding="utf-8")
+        write_text(text, path, overwrite=overwrite)
     return [path for path, _ in plan]
 
 
