@@ -161,7 +161,7 @@ class Assignment:
     def percent_utility(self, mission: Mission) -> float:
         """Utility as a percentage of the mission's total (100 when there is nothing to earn)."""
         total = mission.total_utility
-        return 100.0 if total == 0 else 100.0 * self.utility(mission) / total
+        return 100.0 if total == 0 else 100.0 * (self.utility(mission) / total)  # no overflow
 
     # ---------------------------------------------------------------------- writing
     def to_dict(self, mission: Mission) -> dict[str, Any]:

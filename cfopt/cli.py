@@ -356,6 +356,21 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         help="robot order each round: index (default, the seed's simulator) or seeded random",
     )
     sub.add_argument(
+        "--eps",
+        type=_positive_number,
+        default=None,
+        metavar="X",
+        help="sda: the wage decrement (default 1); rachna-dt: the wage increase "
+        "(default 1/n)",
+    )
+    sub.add_argument(
+        "--max-rounds",
+        type=_whole_number(1),
+        default=None,
+        metavar="N",
+        help="rachna-dt: refuse missions needing more bidding rounds (default 100000)",
+    )
+    sub.add_argument(
         "--network",
         default=None,
         metavar="SPEC",
@@ -381,10 +396,13 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
             raise MissionError("--time-limit: only for distributed runs (give --network)")
         m = load_mission(args.mission)
         _check_output_free(args)
+        options = _auction_options(args)
         if args.network is not None:
+            if options:
+                raise MissionError("--eps and --max-rounds: not for distributed runs")
             result = _simulated(args, m)
         else:
-            result = algorithm(m, seed=args.seed, order=args.order)
+            result = algorithm(m, seed=args.seed, order=args.order, **options)
         a = result.assignment
         out = result.to_dict(m)
         assignment = out.pop("assignment")
@@ -428,6 +446,19 @@ _NETWORK_HELP = (
     "sync=true (lock-step clocks); or a cfopt.network/1 JSON file. Example: "
     "--network 'geometric radius=0.25 latency=uniform:1ms:20ms loss=0.05'"
 )
+
+
+def _auction_options(args: argparse.Namespace) -> dict[str, Any]:
+    options: dict[str, Any] = {}
+    if args.eps is not None:
+        if args.algorithm not in ("sda", "rachna-dt"):
+            raise MissionError("--eps: only for the auctions (sda, rachna-dt)")
+        options["eps"] = args.eps
+    if args.max_rounds is not None:
+        if args.algorithm != "rachna-dt":
+            raise MissionError("--max-rounds: only for rachna-dt")
+        options["max_rounds"] = args.max_rounds
+    return options
 
 
 def _simulated(args: argparse.Namespace, mission: Mission) -> Any:

@@ -30,11 +30,21 @@ objective is encoded as one integer per candidate, ``w' K_w + flag K_f + index``
 ``w' = weight - min(weight)``, ``K_f = k n`` and ``K_w = (k + 1) K_f`` (``K_f`` when no flag),
 so every bundle sum is an integer.  When the largest bundle sum stays below 2**53 the float64
 matching is exact; otherwise the index tie-break is dropped (then the flag), and only if even
-the bare weights exceed 2**53 is the matching done on rounded floats (a case the seed's
-missions never reach; the affordability comparison stays exact regardless).  Ties that remain
+the bare weights exceed 2**53 is the matching done on rounded floats (a case neither auction
+reaches in practice: SDA's weights are 0 or 1 and a RACHNA_dt wage is at most its number of
+purchases; the affordability comparison stays exact regardless).  Ties that remain
 (equal sums of all three keys) are resolved by scipy's deterministic algorithm.  Which of
 several services a multi-service robot performs inside a bundle does not change any price, so
 it never changes an auction's trajectory.
+
+Pruning.  A task that needs more robots of some service than the mission has robots with
+it, or more robots in all (``k``) than have one of its services, has no complete bundle
+ever, whatever is sold or held.  :class:`BundleFinder` marks such tasks at construction
+(``possible``) and never builds their slots: :meth:`BundleFinder.cheapest` answers
+``None`` for them at once, so a requirement of ``2**31 - 1`` costs O(1) time and memory.
+Both auctions treat a pruned task exactly as the literal auction does (it never bids and
+is counted as it would be), so pruning changes no trajectory and no count.  Every task
+kept needs ``k <= n`` robots.
 
 Message model (both auctions)
 -----------------------------
@@ -108,8 +118,30 @@ class Bundle:
 class BundleFinder:
     """Cheapest complete bundles for the tasks of one mission (see the module docstring).
 
-    ``entries`` counts the cost-matrix entries handed to the matching (the engine's own
-    work, for profiling); ``matchings`` the calls.
+    Attributes
+    ----------
+    k : list of int
+        ``k[j] = sum_s r_js``, the robots task ``j`` needs in all (exact Python ints).
+    reach : ndarray of int64, shape (m,)
+        Robots having at least one service task ``j`` needs.
+    slot_service : indexable by task
+        ``slot_service[j]``: the service of each of the ``k_j`` slots of a kept task, as an
+        int64 array built on first use (``ValueError`` for a pruned task).
+    kinds, kind_count : ndarray
+        The distinct capability rows (``K x S`` bool, ``K <= n``) and how many robots have
+        each.
+    possible : ndarray of bool, shape (m,)
+        ``False`` for a task pruned as never staffable (see "Pruning" in the module
+        docstring): :meth:`cheapest` answers ``None`` for it at once.
+    matchings, entries : int
+        Calls of the matching and cost-matrix entries handed to it (the engine's own work,
+        for profiling).
+
+    Notes
+    -----
+    Construction is O(n S + K m S) with ``K <= n`` the distinct capability rows; nothing
+    proportional to a requirement count is allocated (a pruned task never gets slots, a
+    kept one needs ``k_j <= n``).
     """
 
     def __init__(self, caps: npt.NDArray[np.bool_], reqs: npt.NDArray[np.int64]) -> None:
@@ -119,15 +151,36 @@ class BundleFinder:
         self.robots_with = [np.flatnonzero(caps[:, s]).astype(np.int64) for s in range(n_services)]
         self.need: list[npt.NDArray[np.int64]] = []
         self.counts: list[list[int]] = []
-        self.slot_service: list[npt.NDArray[np.int64]] = []
         for j in range(m):
             need = np.flatnonzero(reqs[j]).astype(np.int64)
             self.need.append(need)
             self.counts.append(reqs[j, need].tolist())
-            self.slot_service.append(np.repeat(need, reqs[j, need]))
-        self.k = [int(x) for x in reqs.sum(axis=1)]
+        self.k = [sum(c) for c in self.counts]
+        needs = reqs > 0
+        self.kinds, self.kind_count = _kinds(caps.reshape(self.n, n_services))
+        touches = (self.kinds.astype(np.int64) @ needs.T.astype(np.int64)) > 0  # K x m
+        self.reach = self.kind_count @ touches.astype(np.int64)
+        have = caps.sum(axis=0).astype(np.int64)  # robots per service
+        enough = ~(reqs > have[None, :]).any(axis=1)
+        within = np.array(
+            [k <= r for k, r in zip(self.k, self.reach.tolist(), strict=True)], dtype=bool
+        )
+        self.possible = enough & within
+        self.slot_service = _Slots(self.need, self.counts, self.possible)
+        self._pool: dict[int, npt.NDArray[np.int64]] = {}
         self.matchings = 0
         self.entries = 0
+
+    def pool(self, j: int) -> npt.NDArray[np.int64]:
+        """Robots having at least one service task ``j`` needs, ascending.
+
+        O(n |S_j|) on the first call for ``j``, O(1) after (cached).
+        """
+        robots = self._pool.get(j)
+        if robots is None:
+            robots = np.flatnonzero(self.caps[:, self.need[j]].any(axis=1)).astype(np.int64)
+            self._pool[j] = robots
+        return robots
 
     def cheapest(
         self,
@@ -137,7 +190,13 @@ class BundleFinder:
         flag: npt.NDArray[np.int64] | None = None,
     ) -> Bundle | None:
         """The optimal bundle of task ``j`` among ``pools[s]`` (available robots having
-        ``s``, ascending), or ``None`` when no complete bundle exists."""
+        ``s``, ascending), or ``None`` when no complete bundle exists.
+
+        O(1) for a pruned task; otherwise O(sum_s |pools[s]|) to pick the candidates plus
+        one matching on a ``k_j x`` (at most ``k_j |S_j|``) matrix.
+        """
+        if not self.possible[j]:
+            return None
         k, n = self.k[j], self.n
         parts = []
         for s, r in zip(self.need[j].tolist(), self.counts[j], strict=True):
@@ -203,3 +262,37 @@ class BundleFinder:
             return np.argpartition(key, k - 1)[:k]
         keys = (pool, w) if flag is None else (pool, flag[pool], w)
         return np.lexsort(keys)[:k]
+
+
+class _Slots:
+    """``slots[j]``: the service of each slot of kept task ``j``, built once on first use."""
+
+    def __init__(
+        self,
+        need: list[npt.NDArray[np.int64]],
+        counts: list[list[int]],
+        possible: npt.NDArray[np.bool_],
+    ) -> None:
+        self._need, self._counts, self._possible = need, counts, possible
+        self._cache: dict[int, npt.NDArray[np.int64]] = {}
+
+    def __getitem__(self, j: int) -> npt.NDArray[np.int64]:
+        slots = self._cache.get(j)
+        if slots is None:
+            if not self._possible[j]:
+                raise ValueError(f"task {j} can never be staffed: its slots are not built")
+            slots = np.repeat(self._need[j], self._counts[j])
+            self._cache[j] = slots
+        return slots
+
+
+def _kinds(caps: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.int64]]:
+    """The distinct rows of ``caps`` and how many times each occurs.  O(n S + n log n)."""
+    n_services = caps.shape[1]
+    if n_services <= 62:  # one int64 code per row: a 1-d unique is much faster
+        codes = caps.astype(np.int64) @ (np.int64(1) << np.arange(n_services, dtype=np.int64))
+        values, counts = np.unique(codes, return_counts=True)
+        kinds = (values[:, None] >> np.arange(n_services, dtype=np.int64)[None, :]) & 1
+        return kinds.astype(bool), counts.astype(np.int64)
+    kinds, counts = np.unique(caps, axis=0, return_counts=True)
+    return kinds, counts.astype(np.int64)

@@ -58,7 +58,7 @@ def grape_s(
 
     Notes
     -----
-    Semantics (algorithms.md §2-§3).  All robots start on the void task.  A round: every
+    Semantics.  All robots start on the void task.  A round: every
     robot, in order, computes its best move on the shared partition -- the slot ``(j, s)``
     of one of its services, other than its own, minimising ``(key, j, s)`` where ``key``
     is the exact reward key of joining (for the paper reward ``(c[j, s] + 1) / req[j,
@@ -94,7 +94,10 @@ def grape_s(
     equal (with counts and requirements below 2**26 equal floats imply equal fractions).
     For ``reward="utility"`` robots and targets of tasks with equal weight are compared
     exactly with integers, others by a float filter of width 1e-9 whose undecided cases
-    go to the exact comparison of :class:`heuristics.reward.UtilityKey`.
+    go to the exact comparison of :class:`heuristics.reward.UtilityKey`, once per distinct
+    pair (target slot, own slot) -- the robots of a slot and type share it, so weights
+    that differ by a hair (requirements near ``2**31``, utilities one ulp apart) cost a
+    few exact comparisons per round, not one per robot.
 
     Examples
     --------
@@ -326,7 +329,11 @@ def _general_want(
     model: RewardModel,
     S: int,
 ) -> npt.NDArray[np.bool_]:
-    """``want`` for utility-weighted rewards: exact within a weight class, filtered across."""
+    """``want`` for utility-weighted rewards: exact within a weight class, filtered across.
+
+    O(n) numpy work, plus one exact :class:`heuristics.reward.UtilityKey` comparison per
+    distinct (target service, own slot) among the robots the float filter leaves undecided.
+    """
     target = best_task[a_svc]
     a_class = np.where(a_ok, weight_class[np.maximum(target, 0)], -2)[rtype]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -338,9 +345,18 @@ def _general_want(
         by_float = a_score > cur_score + _BAND
         result = np.where(same, want, by_float)
         undecided = ~same & (np.abs(a_score - cur_score) <= _BAND)
-    for i in np.flatnonzero(undecided).tolist():
-        s = int(a_svc[rtype[i]])
-        join = model.key(int(best_task[s]), s, int(best_num[s]))
-        j, s_own = divmod(int(robot_slot[i]), S)
-        result[i] = join < model.key(j, s_own, int(cur[i]))
+    robots = np.flatnonzero(undecided)
+    if robots.size:
+        # one exact comparison per distinct (target service, own slot): the target slot
+        # and count follow from the service, the own count from the slot
+        span = int(robot_slot[robots].max()) + 1
+        codes = a_svc[rtype[robots]] * span + robot_slot[robots]
+        _, first, inverse = np.unique(codes, return_index=True, return_inverse=True)
+        decided = np.zeros(first.size, dtype=bool)
+        for p, i in enumerate(robots[first].tolist()):
+            s = int(a_svc[rtype[i]])
+            join = model.key(int(best_task[s]), s, int(best_num[s]))
+            j, s_own = divmod(int(robot_slot[i]), S)
+            decided[p] = join < model.key(j, s_own, int(cur[i]))
+        result[robots] = decided[inverse.reshape(-1)]
     return result

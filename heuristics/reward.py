@@ -2,7 +2,7 @@
 
 A robot that is (or would be) one of ``c`` robots performing service ``s`` for task ``j``
 earns ``R(j, s, c) = (u_js / req[j, s]) * exp(1 - c / req[j, s])``; an unassigned robot
-earns 0 (algorithms.md §2).  Two weightings ``u_js`` are offered:
+earns 0.  Two weightings ``u_js`` are offered:
 
 ``"paper"`` (the seed's choice, the default)
     ``u_js = req[j, s]``, so ``R = exp(1 - c / req)``.  A reward is represented by its
@@ -17,9 +17,10 @@ earns 0 (algorithms.md §2).  Two weightings ``u_js`` are offered:
     ``x`` are exact rationals, and by the Lindemann-Weierstrass theorem ``ln q`` is
     irrational for every rational ``q != 1``, so two rewards are *equal* exactly when
     ``w_1 == w_2`` and ``x_1 == x_2`` (decided with fractions); otherwise the sign of
-    ``ln(w_1/w_2) - (x_1 - x_2)`` is non-zero and is found with :mod:`decimal` logarithms
-    at increasing precision until the error bound excludes zero.  A task of utility 0
-    gives reward 0, equal to being unassigned.
+    ``ln(w_1/w_2) - (x_1 - x_2)`` is non-zero and is found in floats with a rigorous error
+    bound (``log1p`` of the exact ``w_1/w_2 - 1`` near 1) or, when that bound cannot
+    exclude zero, with :mod:`decimal` logarithms at increasing precision.  A task of
+    utility 0 gives reward 0, equal to being unassigned.
 
 Keys are totally ordered, *smaller is better*, and :data:`VOID` (``math.inf``) is the key
 of the unassigned robot and of every zero reward.  Engines break ties between equally good
@@ -118,7 +119,21 @@ class UtilityKey:
 
 
 def _log_sign(q: Fraction, d: Fraction) -> int:
-    """The sign of ``ln(q) - d`` for rationals ``q > 0``, ``q != 1`` (never zero)."""
+    """The sign of ``ln(q) - d`` for rationals ``q > 0``, ``q != 1`` (never zero).
+
+    First in floats with a rigorous error bound (``log1p`` of the exactly computed
+    ``q - 1`` when ``q`` is near 1, so ratios one ulp from 1 keep their relative
+    accuracy), then, only when the bound cannot exclude zero, with :mod:`decimal`
+    logarithms at doubling precision.  O(1) float operations on the usual path.
+
+    >>> _log_sign(Fraction(3), Fraction(1))                 # ln 3 > 1: floats decide
+    1
+    >>> _log_sign(Fraction(2**53 + 1, 2**53), Fraction(1, 2**53))  # 2**-107 apart: decimal
+    -1
+    """
+    sign = _float_log_sign(q, d)
+    if sign:
+        return sign
     scale = abs(math.log(q.numerator)) + abs(math.log(q.denominator)) + abs(float(d)) + 1.0
     precision = 40
     for _ in range(12):
@@ -134,6 +149,38 @@ def _log_sign(q: Fraction, d: Fraction) -> int:
                 return 1 if value > 0 else -1
         precision *= 2
     raise ArithmeticError(f"cannot separate ln({q}) from {d}")  # pragma: no cover
+
+
+_TINY = 2.2250738585072014e-308  # the least normal float
+
+
+def _float_log_sign(q: Fraction, d: Fraction) -> int:
+    """The sign of ``ln(q) - d`` when floats decide it for sure, else 0.
+
+    Error bounds (generous): ``float`` of a fraction is correctly rounded (relative
+    ``2**-53``); ``log1p`` and ``log`` are taken to err by at most 8 ulps; ``math.log`` of an
+    integer too large for a float works on its mantissa and exponent (absolute error below
+    ``2**-50`` times the exponent).  With ``|x| < 1/2``, ``|x| <= 1.5 |ln(1 + x)|``.
+    """
+    r = q - 1
+    if -Fraction(1, 2) < r < Fraction(1, 2):
+        x = float(r)
+        if abs(x) < _TINY:  # underflow: no relative accuracy left
+            return 0
+        ln = math.log1p(x)
+        err = 2.0**-46 * abs(ln)
+    else:
+        log_num, log_den = math.log(q.numerator), math.log(q.denominator)
+        ln = log_num - log_den
+        err = 2.0**-46 * (abs(log_num) + abs(log_den) + 1.0)
+    dd = float(d)
+    diff = ln - dd
+    err += 2.0**-50 * (abs(dd) + abs(ln) + abs(diff))
+    if diff > err:
+        return 1
+    if diff < -err:
+        return -1
+    return 0
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """SDA: the simultaneous descending auction, the seed's first auction baseline.
 
 The original protocol paper is not available; this is the toolkit's reading of the seed's
-§3.1 (algorithms.md §6), with every open choice stated in :func:`sda`'s Notes.
+short description, with the semantics and every open choice stated in :func:`sda`'s Notes.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def sda(
 
     Notes
     -----
-    The auction (algorithms.md §6).  Every robot has a wage ``max(0, u_max + eps - d eps)``
+    The auction.  Every robot has a wage ``max(0, u_max + eps - d eps)``
     after ``d`` decrements.  Round ``t``: (1) the schedule decrements (floored at 0; when
     every unsold wage is 0 nothing changes); (2) every task not yet staffed finds its
     cheapest complete bundle of unsold robots (the cost is the sum of their current wages)
@@ -78,10 +78,11 @@ def sda(
     has a complete bundle can afford it, so step 3 has then placed all that can be placed).
     A task that cannot be staffed still waits until that round: the quiet rounds are counted.
 
-    Choices where §6 is open: the bundle tie-break (among bundles of equal cost, the least
-    sum of robot indices; see :mod:`heuristics._auction`); the award order on re-bids
-    (current surplus, above); wages are exact rationals (``fractions.Fraction``) and every
-    comparison ``cost <= u[j]`` and every surplus comparison is exact; the stopping round.
+    Choices the seed's description leaves open: the bundle tie-break (among bundles of equal
+    cost, the least sum of robot indices; see :mod:`heuristics._auction`); the award order
+    on re-bids (current surplus, above); wages are exact rationals (``fractions.Fraction``)
+    and every comparison ``cost <= u[j]`` and every surplus comparison is exact; the
+    stopping round.
 
     Exact engine.  Between two award rounds the unsold set is fixed, so the wages are a
     closed-form function of the round: under ``max-wage`` the unsold robots, in index order,
@@ -99,6 +100,16 @@ def sda(
     the next sweep starts after the best round found.  It produces exactly the
     round-by-round trajectory (tests compare it with a literal transcription).
 
+    Any utility and requirement.  Wages, costs and utilities are fractions, and the round
+    and decrement clocks Python integers, so nothing overflows however large ``u_max /
+    eps`` is (``rounds`` and the counts can then be huge exact integers: the engine jumps
+    over the rounds, it does not run them).  A robot's decrement count is never stored:
+    at clock ``x = a q + r`` the robots at positions ``< r`` have had ``a + 1`` decrements
+    and the others ``a``.  A task that can never be staffed (it needs more robots of a
+    service than have it, or more robots in all than have one of its services) is pruned
+    before the first round: it is never searched, and it still counts as unstaffed for the
+    stopping rule and the messages, exactly as in the literal auction.
+
     Counting.  ``rounds``: rounds run (at most ``n D`` under ``max-wage``, ``D`` under
     ``uniform``; ``D = ceil(u_max / eps) + 1``).  Messages (header 8 bytes, entries 12
     bytes): each wage decrement is announced by every service agent of the robot to every
@@ -114,7 +125,8 @@ def sda(
 
     Complexity: O(m) award rounds, each costing O(m' (log q) M) where ``m'`` is the number of
     tasks whose crossing sweep is near the front and ``M`` one matching on at most
-    ``k_j |S_j|`` candidates, plus O(n S) bookkeeping.
+    ``k_j |S_j|`` candidates, plus O(n S) bookkeeping; arithmetic on numbers of
+    O(log(u_max / eps)) digits, independent of the number of rounds.
 
     Examples
     --------
@@ -186,14 +198,14 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
     needmask = reqs > 0  # m x S
     caps64 = caps.astype(np.int64)
     need64 = needmask.astype(np.int64)
-    rows = ((caps64 @ need64.T) > 0).sum(axis=0).astype(np.int64)  # unsold robots per task
-    k_arr = np.array(k, dtype=np.int64)
+    rows = finder.reach.copy()  # unsold robots having one of the task's services
+    # the literal work of a round, sum rows[j] k[j], in int64 unless that could overflow
+    k_arr = np.array(k, dtype=np.int64 if n * sum(k) < 2**62 else object)
     staffed = np.zeros(m, dtype=bool)
-    dead = np.zeros(m, dtype=bool)
+    dead = ~finder.possible  # pruned: never staffable, never searched
     unsold = np.ones(n, dtype=bool)
     alive = np.arange(n, dtype=np.int64)  # unsold robots, ascending
     pos = np.arange(n, dtype=np.int64)  # position in ``alive``; -1 when sold
-    d_arr = np.zeros(n, dtype=np.int64)
     pools = [r.copy() for r in finder.robots_with]
     A = need64.sum(axis=0)  # unstaffed tasks needing each service
     R = 0  # rounds completed
@@ -209,13 +221,12 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
         """(high wage, low wage, 0/1 weight of ``robots`` = has the high wage) at clock x."""
         if uniform:
             return wage(x), wage(x), np.zeros(robots.size, dtype=np.int64)
-        q = alive.size
-        a = x // q
+        # x = a q + r: the robots at positions < r have had a + 1 decrements, the others a
+        a, r = divmod(x, alive.size)
         hi, lo = wage(a), wage(a + 1)
         if hi == lo:
             return hi, lo, np.zeros(robots.size, dtype=np.int64)
-        d = (x - pos[robots] + q - 1) // q
-        return hi, lo, (d == a).astype(np.int64)
+        return hi, lo, (pos[robots] >= r).astype(np.int64)
 
     wfull = np.zeros(n, dtype=np.int64)
 
@@ -306,11 +317,6 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             break
         quiet(R + 1, best)
         x = clock(best)
-        if uniform:
-            d_arr[alive] = x
-        else:
-            q = alive.size
-            d_arr[alive] = (x - pos[alive] + q - 1) // q
         hi, lo, wt = weights_at(x, alive)
         wfull[alive] = wt
         R = best
@@ -360,10 +366,13 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
         out.messages += int(A[has].sum())
         out.bytes += int((A * (HEADER_BYTES + ENTRY_BYTES * sold_per_service))[has].sum())
         unsold &= ~sold_round
+        if not uniform:  # decrements of the robots left: a + (1 if position < r)
+            a, r = divmod(x, alive.size)
+            left = alive[~sold_round[alive]]
+            total = a * left.size + int((pos[left] < r).sum())
         alive = np.flatnonzero(unsold).astype(np.int64)
         pos[:] = -1
         pos[alive] = np.arange(alive.size)
-        total = int(d_arr[alive].sum())
         if uniform:
             if x >= D:
                 break

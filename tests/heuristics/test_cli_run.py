@@ -58,9 +58,9 @@ def test_run_text_output(mission_file, capsys) -> None:
     m, path = mission_file
     assert main(["run", "grape-s", path]) == 0
     out, _ = capsys.readouterr()
-    first, rest = out.split("\n", 1)
+    first, second, rest = out.split("\n", 2)
     assert first.startswith("grape-s: utility ")
-    assert "nash stable yes" in first
+    assert "Nash yes" in second and "pairwise (strict)" in second and "pareto" in second
     assert Assignment.from_dict(m, json.loads(rest)) == grape_s(m).assignment
 
 
