@@ -309,6 +309,27 @@ def test_bad_input_exits_2_with_one_error_line(
     assert {p: p.read_bytes() for p in before} == before  # nothing the user had changed
 
 
+EXTREMES = Mission.from_arrays(
+    [[1, 0], [1, 1], [0, 1]], [[1, 0], [2147483647, 1], [0, 1]], [1e25, 5.0, 1e-300]
+)
+
+
+@pytest.mark.parametrize("algorithm", ["grape-s", "pair-grape-s", "sda", "rachna-dt"])
+def test_extreme_but_valid_missions_are_answered(tmp_path: Path, algorithm: str) -> None:
+    """A utility of 1e25, one of 1e-300 and a requirement of 2**31 - 1 (a task no mission
+    can staff): every algorithm answers at once, without a traceback or a huge allocation."""
+    path = tmp_path / "m.json"
+    EXTREMES.to_json(path)
+    started = time.monotonic()
+    result = cfopt("run", algorithm, str(path), "--json", timeout=60)
+    assert result.returncode == 0, result.stderr
+    utility = json.loads(result.stdout)["utility"]
+    # the auctions buy t0 (worth 1e25); GRAPE-S's reward ignores utility and chases t1,
+    # whose requirement makes every load tiny: it earns nothing, which is its answer
+    assert utility >= 1e25 if algorithm in ("sda", "rachna-dt") else utility == 0
+    assert time.monotonic() - started < 30
+
+
 @pytest.mark.parametrize("where", ["services", "name", "metadata"])
 def test_deeply_nested_values_from_python_are_clean_errors(where: str) -> None:
     deep: list = []
