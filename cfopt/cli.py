@@ -360,8 +360,7 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         type=_positive_number,
         default=None,
         metavar="X",
-        help="sda: the wage decrement (default 1); rachna-dt: the wage increase "
-        "(default 1/n)",
+        help="sda: the wage decrement (default 1); rachna-dt: the wage increase (default 1/n)",
     )
     sub.add_argument(
         "--max-rounds",
@@ -766,17 +765,18 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
                 }
             )
         else:
+            cells, missions = plural(len(sweep.cells), "cell"), plural(sweep.missions, "mission")
+            if any(c.network is not None for c in sweep.cells):
+                per = (
+                    f"the exact solve and {plural(len(sweep.heuristics), 'heuristic')}, "
+                    "distributed cells only those with agents"
+                )
+            else:
+                per = plural(len(sweep.algorithms or ()), "algorithm")
             print(
                 f"{outcome.store}: {plural(outcome.completed, 'trial')} run, "
                 f"{outcome.skipped} already stored, {len(outcome.failures)} failed, of "
-                f"{outcome.total} ({plural(len(sweep.cells), 'cell')} x "
-                f"{plural(sweep.missions, 'mission')} x the exact solve and "
-                f"{plural(len(sweep.heuristics), 'heuristic')}, distributed cells only those "
-                f"with agents), {outcome.seconds:.1f} s"
-                if any(c.network is not None for c in sweep.cells)
-                else f"{outcome.total} ({plural(len(sweep.cells), 'cell')} x "
-                f"{plural(sweep.missions, 'mission')} x "
-                f"{plural(len(sweep.algorithms or ()), 'algorithm')}), {outcome.seconds:.1f} s"
+                f"{outcome.total} ({cells} x {missions} x {per}), {outcome.seconds:.1f} s"
             )
         return _report_failures(outcome)
 
