@@ -535,18 +535,24 @@ def test_killing_a_sweep_leaves_no_worker_behind(tmp_path: Path) -> None:
     process.stderr.close()
 
 
+LONG_SWEEP = [
+    "sweep", "--robots", "200", "--percent-tasks", "50", "--compositions", "10:5",
+    "--missions", "12", "--algorithms", "grape-s", "--workers", "1", "--quiet", "--store",
+]  # fmt: skip
+
+
 def test_a_second_sweep_on_the_same_store_is_refused(tmp_path: Path) -> None:
     store = tmp_path / "s.sqlite"
-    first = _start(*SWEEP, str(store), "--quiet", cwd=tmp_path)
+    first = _start(*LONG_SWEEP, str(store), cwd=tmp_path)
     _wait_for(lambda: (tmp_path / "s.sqlite.lock").exists() and _stored(store) >= 1)
-    second = cfopt(*SWEEP, str(store), cwd=tmp_path)
+    second = cfopt(*LONG_SWEEP, str(store), cwd=tmp_path)
     assert_one_error_line(second, f"in use by cfopt sweep (process {first.pid})")
     out, err = first.communicate(timeout=300)
     assert first.returncode == 0, err
-    assert f"{TRIALS} trials run, 0 already stored, 0 failed, of {TRIALS}" in out  # each once
-    again = cfopt(*SWEEP, str(store), "--quiet", cwd=tmp_path)
-    assert f"0 trials run, {TRIALS} already stored" in again.stdout
-    assert _stored(store) == TRIALS
+    assert "24 trials run, 0 already stored, 0 failed, of 24" in out  # each computed once
+    again = cfopt(*LONG_SWEEP, str(store), cwd=tmp_path)
+    assert "0 trials run, 24 already stored" in again.stdout
+    assert _stored(store) == 24
     assert not (tmp_path / "s.sqlite.lock").exists()
 
 

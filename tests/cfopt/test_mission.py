@@ -16,7 +16,13 @@ from cfopt import MISSION_FORMAT, Mission, MissionError
 
 # ------------------------------------------------------------------ valid mission dicts
 names = st.text(min_size=1, max_size=6)
-json_scalars = st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | names
+json_scalars = (
+    st.none()
+    | st.booleans()
+    | st.integers()
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | names
+)
 json_values = st.recursive(
     json_scalars,
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(names, inner, max_size=3),
