@@ -7,12 +7,13 @@
 >>> run.assignment.percent_utility(m), run.iterations, run.rounds
 (100.0, 30, 31)
 >>> sorted(heuristics.ALGORITHMS)
-['grape-s', 'pair-grape-s', 'rachna-dt', 'sda']
+['grape-s', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
 """
 
 from heuristics._run import Run, belief_bytes, broadcast_cost
 from heuristics.grape_s import grape_s
 from heuristics.pair_grape_s import pair_grape_s
+from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
 from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm, run_algorithm
 from heuristics.sda import sda
@@ -27,6 +28,7 @@ __all__ = [
     "get_algorithm",
     "grape_s",
     "pair_grape_s",
+    "pair_grape_s_chain",
     "rachna_dt",
     "run_algorithm",
     "sda",

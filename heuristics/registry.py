@@ -15,6 +15,7 @@ from cfopt import Mission, MissionError
 from heuristics._run import Run
 from heuristics.grape_s import grape_s
 from heuristics.pair_grape_s import pair_grape_s
+from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
 from heuristics.sda import sda
 
@@ -22,13 +23,14 @@ __all__ = ["ALGORITHMS", "algorithm_names", "get_algorithm", "run_algorithm"]
 
 Algorithm = Callable[..., Run]
 
-#: Name -> function, read-only.  SDA (``sda``) and RACHNA_dt (``rachna-dt``) come later.
+#: Name -> function, read-only: the seed's four algorithms, then cfopt's own.
 ALGORITHMS: Mapping[str, Algorithm] = MappingProxyType(
     {
         "grape-s": grape_s,
         "pair-grape-s": pair_grape_s,
         "sda": sda,
         "rachna-dt": rachna_dt,
+        "pair-grape-s-chain": pair_grape_s_chain,
     }
 )
 
@@ -37,7 +39,7 @@ def algorithm_names() -> list[str]:
     """The registered names, sorted.
 
     >>> algorithm_names()
-    ['grape-s', 'pair-grape-s', 'rachna-dt', 'sda']
+    ['grape-s', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
     """
     return sorted(ALGORITHMS)
 

@@ -1032,9 +1032,11 @@ def _build() -> dict[str, Claim]:
             sweep=_EASY,
         ),
     ]
+    from proofs.claims_chain import chain_claims
     from proofs.distributed import distributed_claims
 
     claims += distributed_claims()
+    claims += chain_claims()
     return {c.id: c for c in claims}
 
 

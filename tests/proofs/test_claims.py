@@ -54,17 +54,19 @@ EXPECTED = {
     "D4": VerdictKind.FAILS,
     "D5": VerdictKind.FAILS,
     "X9": VerdictKind.HOLDS,
+    "C1": VerdictKind.HOLDS,
+    "C2": VerdictKind.FAILS,
 }
 
 
 def test_claim_list_starts_with_the_seed_stability_and_optimality_claims() -> None:
     assert list(CLAIMS)[:10] == ["L1", "T1", "G1", "G2", "G3", "G4", "P1", "R1", "X1", "X2"]
     assert set(CLAIMS) == set(EXPECTED)
-    for claim in CLAIMS.values():
-        assert "§" in claim.statement and claim.family
+    for claim in CLAIMS.values():  # the seed's claims quote it; cfopt's own say so
+        assert ("§" in claim.statement or "cfopt's claim" in claim.statement) and claim.family
 
 
-@pytest.mark.parametrize("claim_id", [k for k in EXPECTED if k not in ("L1", "T1")])
+@pytest.mark.parametrize("claim_id", [k for k in EXPECTED if k not in ("L1", "T1", "C2")])
 def test_verdict_as_established(claim_id: str) -> None:
     # G4's failures are rare (1 in ~30 missions of 100 robots), R1's and H4's too (a few
     # hundred small missions of the seed's family per failure): they need the default budget
