@@ -273,32 +273,15 @@ def _chain_step(
     if (counts > reqs).any():  # capped GRAPE-S never over-fills: the proof relies on it
         raise AssertionError("phase 1 left an over-full slot")
     short = counts < reqs  # requirement 0 is never short
-    caps_int = caps.astype(np.int64)
-    # the static arcs service s -> robot b (b can perform s), node ids n + s and b
-    cap_robot, cap_service = np.nonzero(caps)
-    static_rows = n + cap_service
-    static_cols = cap_robot
-    sink = n + n_services
     key: Any = model.key
 
     def needed() -> bool:
         return bool(short.any()) and bool((task < 0).any())
 
     def chain_lengths() -> npt.NDArray[np.float64]:
-        """``D(b)`` for every robot: partners on its shortest chain (``inf``: none)."""
-        on = task >= 0
-        own_short = np.zeros(n, dtype=np.int64)
-        own_short[on] = short[task[on], service[on]]
-        terminal = np.flatnonzero(caps_int @ short.sum(axis=0) - own_short > 0)
-        holders = np.flatnonzero(on)
-        rows = np.concatenate([np.full(terminal.size, sink), holders, static_rows])
-        cols = np.concatenate([terminal, n + service[holders], static_cols])
-        graph = sp.csr_matrix(
-            (np.ones(rows.size, dtype=np.float64), (rows, cols)), shape=(sink + 1, sink + 1)
-        )
-        out.work += int(rows.size)
-        dist = shortest_path(graph, method="D", directed=True, unweighted=True, indices=sink)
-        return (dist[:n] - 1.0) / 2.0
+        lengths, work = chain_distances(caps, short, task, service)
+        out.work += work
+        return lengths
 
     if not needed():
         return out
@@ -315,27 +298,12 @@ def _chain_step(
             d = lengths[o]
             if not np.isfinite(d):
                 continue
-            chain = [o]
-            for step in range(int(d), 0, -1):
-                cur = chain[-1]
-                on = task >= 0
-                fits = on & caps[cur][np.where(on, service, 0)] & (lengths == step - 1)
-                out.work += int(on.sum())
-                nxt = np.flatnonzero(fits)
-                chain.append(int(nxt[np.argmin(position[nxt])]))
-            last = chain[-1]
-            own = (int(task[last]), int(service[last])) if task[last] >= 0 else None
-            best = None
-            for s in np.flatnonzero(caps[last]).tolist():
-                for j in np.flatnonzero(short[:, s]).tolist():
-                    if (j, s) == own:
-                        continue
-                    out.work += 1
-                    candidate = (key(j, s, int(counts[j, s]) + 1), j, s)
-                    if best is None or candidate < best:
-                        best = candidate
-            assert best is not None  # D(last) = 0 guarantees a short slot other than its own
-            _, j_new, s_new = best
+            chain, work = trace_chain(o, lengths, caps, task, service, position)
+            out.work += work
+            found, work = end_slot(chain[-1], caps, short, counts, task, service, key)
+            out.work += work
+            assert found is not None  # D(last) = 0 guarantees a short slot other than its own
+            j_new, s_new = found
             slots = [(int(task[b]), int(service[b])) for b in chain[1:]] + [(j_new, s_new)]
             iteration = base_iteration + out.exchanges + 1
             for robot, (j, s) in zip(chain, slots, strict=True):
@@ -355,3 +323,80 @@ def _chain_step(
             out.rounds += 1  # the quiet pass: one broadcast round, nobody changed
             break
     return out
+
+
+def chain_distances(
+    caps: npt.NDArray[np.bool_],
+    short: npt.NDArray[np.bool_],
+    task: npt.NDArray[np.int64],
+    service: npt.NDArray[np.int64],
+) -> tuple[npt.NDArray[np.float64], int]:
+    """``D(b)`` for every robot -- the partners on its shortest chain (``inf``: none) --
+    and the arcs searched (the ``work``).
+
+    One backwards shortest-path search from the sink over robots and services (see
+    :func:`pair_grape_s_chain`): ``T -> a`` when ``a`` can serve a short slot other than
+    its own, ``a -> s`` for an assigned robot ``a`` on service ``s``, ``s -> b`` when ``b``
+    has ``s``.  O(n S) with scipy's unweighted Dijkstra.
+    """
+    n, n_services = caps.shape
+    sink = n + n_services
+    cap_robot, cap_service = np.nonzero(caps)
+    on = task >= 0
+    own_short = np.zeros(n, dtype=np.int64)
+    own_short[on] = short[task[on], service[on]]
+    terminal = np.flatnonzero(caps.astype(np.int64) @ short.sum(axis=0) - own_short > 0)
+    holders = np.flatnonzero(on)
+    rows = np.concatenate([np.full(terminal.size, sink), holders, n + cap_service])
+    cols = np.concatenate([terminal, n + service[holders], cap_robot])
+    graph = sp.csr_matrix(
+        (np.ones(rows.size, dtype=np.float64), (rows, cols)), shape=(sink + 1, sink + 1)
+    )
+    dist = shortest_path(graph, method="D", directed=True, unweighted=True, indices=sink)
+    return (dist[:n] - 1.0) / 2.0, int(rows.size)
+
+
+def trace_chain(
+    o: int,
+    lengths: npt.NDArray[np.float64],
+    caps: npt.NDArray[np.bool_],
+    task: npt.NDArray[np.int64],
+    service: npt.NDArray[np.int64],
+    position: npt.NDArray[np.int64],
+) -> tuple[list[int], int]:
+    """The chain ``[o, a_1, ..., a_k]`` from ``o`` (``lengths[o] = k`` finite): each next
+    robot is, of the assigned robots whose slot the current one can take and whose
+    distance is one less, the first in ``position`` order.  Returns it and the work."""
+    chain, work = [o], 0
+    for step in range(int(lengths[o]), 0, -1):
+        cur = chain[-1]
+        on = task >= 0
+        fits = on & caps[cur][np.where(on, service, 0)] & (lengths == step - 1)
+        work += int(on.sum())
+        nxt = np.flatnonzero(fits)
+        chain.append(int(nxt[np.argmin(position[nxt])]))
+    return chain, work
+
+
+def end_slot(
+    last: int,
+    caps: npt.NDArray[np.bool_],
+    short: npt.NDArray[np.bool_],
+    counts: npt.NDArray[np.int64],
+    task: npt.NDArray[np.int64],
+    service: npt.NDArray[np.int64],
+    key: Any,
+) -> tuple[tuple[int, int] | None, int]:
+    """The short slot (not its own) the chain's last robot moves to: the lowest
+    ``(key(j, s, c + 1), j, s)``; ``None`` when there is none.  Returns it and the work."""
+    own = (int(task[last]), int(service[last])) if task[last] >= 0 else None
+    best, work = None, 0
+    for s in np.flatnonzero(caps[last]).tolist():
+        for j in np.flatnonzero(short[:, s]).tolist():
+            if (j, s) == own:
+                continue
+            work += 1
+            candidate = (key(j, s, int(counts[j, s]) + 1), j, s)
+            if best is None or candidate < best:
+                best = candidate
+    return (None if best is None else (best[1], best[2])), work

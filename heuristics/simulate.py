@@ -59,7 +59,13 @@ import numpy.typing as npt
 from cfopt import Assignment, Mission, MissionError, require_mission
 from heuristics._run import Run, seed_label
 from heuristics.agents.belief import Belief, Problem, encode_belief
-from heuristics.agents.grape_s import GrapeSAgent, PairGrapeSAgent, pairwise_plan
+from heuristics.agents.grape_s import (
+    GrapeSAgent,
+    PairGrapeSAgent,
+    PairGrapeSChainAgent,
+    chain_plan,
+    pairwise_plan,
+)
 from heuristics.network import Clocks, Links, Network, NetworkSpec
 
 __all__ = ["DEFAULT_TIME_LIMIT", "QUIET_FACTOR", "NetworkReport", "simulate"]
@@ -69,7 +75,7 @@ DEFAULT_TIME_LIMIT = 3600.0
 #: ``K`` of the termination rule: a robot stops after ``K * d_G`` ticks without a change.
 QUIET_FACTOR = 2
 #: Distributed algorithms the simulator runs.
-DISTRIBUTED = ("grape-s", "pair-grape-s", "sda")
+DISTRIBUTED = ("grape-s", "pair-grape-s", "sda", "pair-grape-s-chain")
 _ID_BITS = 20  # a key (r, time, id) packs time and id into one int64: time * 2**20 + id + 1
 _MAX_TIME_NS = (2**63 - 1) >> _ID_BITS
 _NEVER = np.iinfo(np.int64).max
@@ -379,7 +385,7 @@ class GrapeSProtocol(Protocol):
             converged=bool(converged),
             beliefs_agree=bool(agree),
             convergence_ns=when,
-            exchanges=sum(1 for node in _trail_nodes(newest) if len(node[1]) == 2),
+            exchanges=sum(1 for node in _trail_nodes(newest) if len(node[1]) >= 2),
             pairwise_step_ran=any(getattr(a, "step_needed", False) for a in sim.agents),
             options=(("capped", self.pairwise), ("reward", sim.reward)),
         )
@@ -399,11 +405,26 @@ class PairGrapeSProtocol(GrapeSProtocol):
         return pairwise_plan(sim.problem, belief) is None
 
 
+class PairGrapeSChainProtocol(PairGrapeSProtocol):
+    """Pair-GRAPE-S with chain exchanges; final = no chain left for the step."""
+
+    name = "pair-grape-s-chain"
+
+    def make_agents(self, sim: _Simulation) -> list[Any]:
+        hops = sim.network.hops
+        return [PairGrapeSChainAgent(i, sim.problem, sim.quiet_limit, hops) for i in range(sim.n)]
+
+    def final(self, sim: _Simulation, belief: Belief) -> bool:
+        return chain_plan(sim.problem, belief) is None
+
+
 def _protocol(algorithm: str) -> Protocol:
     if algorithm == "grape-s":
         return GrapeSProtocol()
     if algorithm == "pair-grape-s":
         return PairGrapeSProtocol()
+    if algorithm == "pair-grape-s-chain":
+        return PairGrapeSChainProtocol()
     if algorithm == "sda":
         from heuristics.agents.sda import SdaProtocol
 

@@ -55,7 +55,7 @@ import math
 import random
 import time
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -1040,9 +1040,35 @@ def _build() -> dict[str, Claim]:
     return {c.id: c for c in claims}
 
 
+class _Claims(Mapping[str, Claim]):
+    """The claims by id, built on first use (the modules of the further claims import this
+    one, so they are gathered only once everything is defined)."""
+
+    def __init__(self) -> None:
+        self._built: dict[str, Claim] | None = None
+
+    def _claims(self) -> dict[str, Claim]:
+        if self._built is None:
+            self._built = _build()
+        return self._built
+
+    def __getitem__(self, key: str) -> Claim:
+        return self._claims()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._claims())
+
+    def __len__(self) -> int:
+        return len(self._claims())
+
+    def __repr__(self) -> str:
+        return f"CLAIMS({', '.join(self)})"
+
+
 #: The claims, in the audit's order: the seed's stability, optimality and complexity
-#: claims (L1 ... X2), then further statements of the seed (X3 ...).
-CLAIMS: dict[str, Claim] = _build()
+#: claims (L1 ... X2), further statements of the seed (X3 ... I1), its distributed claims
+#: (D1 ... X9), then cfopt's claims about its own algorithms (C1 ...).
+CLAIMS: Mapping[str, Claim] = _Claims()
 
 
 # --------------------------------------------------------------------- the audit

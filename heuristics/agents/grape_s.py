@@ -50,6 +50,7 @@ answer ``(2, o, accepted)`` 12 bytes.
 
 from __future__ import annotations
 
+import itertools
 import struct
 from dataclasses import dataclass
 from typing import Any
@@ -58,7 +59,14 @@ import numpy as np
 
 from heuristics.agents.belief import Belief, Problem
 
-__all__ = ["Answer", "GrapeSAgent", "PairGrapeSAgent", "Request"]
+__all__ = [
+    "Answer",
+    "ChainRequest",
+    "GrapeSAgent",
+    "PairGrapeSAgent",
+    "PairGrapeSChainAgent",
+    "Request",
+]
 
 _REQUEST = struct.Struct("<iiii")
 _ANSWER = struct.Struct("<iii")
@@ -87,12 +95,18 @@ class Answer:
         return _ANSWER.pack(2, self.o, int(self.accepted))
 
 
-def decode_message(data: bytes) -> Request | Answer:
-    """A direct message as :meth:`Request.encode` / :meth:`Answer.encode` built it."""
+def decode_message(data: bytes) -> Any:
+    """A direct message as its ``encode()`` built it (request, answer, chain request)."""
     kind = struct.unpack_from("<i", data)[0]
     if kind == 1:
         _, o, a, slot = _REQUEST.unpack(data)
         return Request(o, a, slot)
+    if kind == 3:
+        _, o, hop, k = _CHAIN_HEAD.unpack_from(data)
+        values = struct.unpack_from(f"<{2 * k + 1}i", data, _CHAIN_HEAD.size)
+        return ChainRequest(
+            o, tuple(values[0 : 2 * k : 2]), tuple(values[1 : 2 * k : 2]), values[-1], hop
+        )
     _, o, accepted = _ANSWER.unpack(data)
     return Answer(o, bool(accepted))
 
@@ -167,7 +181,7 @@ class PairGrapeSAgent(GrapeSAgent):
         super().__init__(robot, problem, quiet_limit, capped=True)
         self.phase = 1
         self.hops = hops
-        self.pending: tuple[int, int] | None = None  # (partner, tick of the request)
+        self.pending: tuple[int, int] | None = None  # (patience in ticks, tick of the request)
         self.exchanges = 0
         self.step_needed = False  # the pairwise step had work when this robot reached it
 
@@ -176,12 +190,13 @@ class PairGrapeSAgent(GrapeSAgent):
         changed = self._mutex(received)
         out: Outbox = []
         for message in inbox:
-            if isinstance(message, Request):
-                accepted = self._answer(message, now)
-                changed |= accepted
-                out.append((message.o, Answer(message.o, accepted)))
-            elif self.pending is not None and not message.accepted:
-                self.pending = None
+            if isinstance(message, Answer):
+                if self.pending is not None and not message.accepted:
+                    self.pending = None
+                continue
+            sends, accepted = self._on_request(message, now)
+            changed |= accepted
+            out += sends
         if self.phase == 1:
             changed |= self._select(now)
             self.quiet = 0 if changed else self.quiet + 1
@@ -195,26 +210,39 @@ class PairGrapeSAgent(GrapeSAgent):
         if (
             self.quiet >= self.quiet_limit
             and self.pending is None
-            and pairwise_plan(self.problem, self.belief) is None
+            and self.plan(self.belief) is None
         ):
             self.stopped = True
         return self.belief, out
 
+    def plan(self, belief: Belief) -> Any:
+        """The pairwise step's next exchange on ``belief`` (its actor first), or ``None``."""
+        return pairwise_plan(self.problem, belief)
+
+    def _request(self, plan: Any) -> tuple[int, Any, int]:
+        """The message that starts ``plan``'s exchange, its first recipient, and the hops
+        the exchange's messages travel before the answer can be back."""
+        _, partner, slot = plan
+        return partner, Request(self.robot, partner, slot), int(self.hops(self.robot, partner))
+
+    def _on_request(self, request: Any, now: int) -> tuple[Outbox, bool]:
+        accepted = self._answer(request, now)
+        return [(request.o, Answer(request.o, accepted))], accepted
+
     def _act(self) -> Outbox:
         belief = self.belief
         if self.pending is not None:
-            partner, since = self.pending
+            patience, since = self.pending
             settled = belief.slots[self.robot] >= 0
-            patience = 4 + 2 * int(self.hops(self.robot, partner))
             if not settled and self.ticks - since <= patience:
                 return []
             self.pending = None
-        plan = pairwise_plan(self.problem, belief)
+        plan = self.plan(belief)
         if plan is None or plan[0] != self.robot:
             return []
-        _, partner, slot = plan
-        self.pending = (partner, self.ticks)
-        return [(partner, Request(self.robot, partner, slot))]
+        first, message, hops = self._request(plan)
+        self.pending = (4 + 2 * hops, self.ticks)  # ticks to wait for the answer
+        return [(first, message)]
 
     def _answer(self, request: Request, now: int) -> bool:
         belief, problem = self.belief, self.problem
@@ -302,3 +330,132 @@ def best_short_slot(problem: Problem, belief: Belief, robot: int) -> int | None:
             if best is None or (key, slot) < best:
                 best = (key, slot)
     return None if best is None else best[1]
+
+
+# ------------------------------------------------------------------- chain exchanges
+_CHAIN_HEAD = struct.Struct("<iiii")  # kind 3, o, hop, k
+
+
+@dataclass(frozen=True)
+class ChainRequest:
+    """Unassigned robot ``o`` asks the chain ``robots`` (``a_1 .. a_k``) to shift: ``o``
+    takes ``slots[0]`` (``a_1``'s), each ``a_i`` the next one's, ``a_k`` the short slot
+    ``end``.  It travels from ``a_1`` to ``a_k``; ``hop`` is the recipient's position."""
+
+    o: int
+    robots: tuple[int, ...]
+    slots: tuple[int, ...]
+    end: int
+    hop: int = 0
+
+    def encode(self) -> bytes:
+        body = _CHAIN_HEAD.pack(3, self.o, self.hop, len(self.robots))
+        pairs = [v for pair in zip(self.robots, self.slots, strict=True) for v in pair]
+        return body + struct.pack(f"<{len(pairs) + 1}i", *pairs, self.end)
+
+
+class PairGrapeSChainAgent(PairGrapeSAgent):
+    """One robot running Pair-GRAPE-S with chain exchanges (``pair-grape-s-chain``).
+
+    Phase 1 and the pass state are Pair-GRAPE-S's; the actor is the first unassigned robot
+    after the cursor that has a chain (the centralized variant's shortest chain, its ties
+    and end slot: :func:`chain_plan`).  Its :class:`ChainRequest` goes to ``a_1`` and is
+    forwarded along the chain, each member checking its own slot on its own belief; the
+    last member checks the whole chain and the end slot on its belief, makes the exchange
+    in it (``r += 1``: one iteration, every robot on the chain one step) and answers
+    *accept*; a member that finds the request stale answers *refuse*.  Request ``16 + 8 k``
+    bytes; answers as Pair-GRAPE-S's.
+    """
+
+    def plan(self, belief: Belief) -> Any:
+        return chain_plan(self.problem, belief)
+
+    def _request(self, plan: Any) -> tuple[int, Any, int]:
+        o, robots, slots, end = plan
+        path = (o, *robots)
+        hops = sum(int(self.hops(a, b)) for a, b in itertools.pairwise(path))
+        hops += int(self.hops(path[-1], o))
+        first = robots[0] if robots else o  # no partner: o moves into the short slot itself
+        return first, ChainRequest(o, robots, slots, end), hops
+
+    def _on_request(self, request: Any, now: int) -> tuple[Outbox, bool]:
+        belief = self.belief
+        if not request.robots:
+            accepted = request.o == self.robot and self._apply_chain(request, now)
+            return [], accepted
+        valid = (
+            request.robots[request.hop] == self.robot
+            and int(belief.slots[request.o]) < 0
+            and int(belief.slots[self.robot]) == request.slots[request.hop]
+        )
+        last = request.hop == len(request.robots) - 1
+        if valid and not last:
+            nxt = ChainRequest(
+                request.o, request.robots, request.slots, request.end, request.hop + 1
+            )
+            return [(request.robots[request.hop + 1], nxt)], False
+        accepted = valid and self._apply_chain(request, now)
+        return [(request.o, Answer(request.o, accepted))], accepted
+
+    def _apply_chain(self, request: ChainRequest, now: int) -> bool:
+        belief = self.belief
+        slots = belief.slots
+        if any(int(slots[r]) != s for r, s in zip(request.robots, request.slots, strict=True)):
+            return False
+        short = _short(self.problem, belief)
+        if not short[request.end] or request.end == int(slots[self.robot]):
+            return False
+        movers = (request.o, *request.robots)
+        targets = (*request.slots, request.end)
+        same_pass = request.o > belief.cursor
+        self.belief = belief.updated(
+            tuple(zip(movers, targets, strict=True)),
+            now,
+            self.robot,
+            cursor=request.o,
+            made=belief.made + 1 if same_pass else 1,
+        )
+        self.exchanges += 1
+        self.proposals += 1
+        return True
+
+
+def chain_plan(problem: Problem, belief: Belief) -> tuple[int, tuple, tuple, int] | None:
+    """``(o, (a_1..a_k), their slots, end slot)`` of the chain step on ``belief``, or
+    ``None``: the centralized variant's choice (:mod:`heuristics.pair_grape_s_chain`)
+    with the pass state of the belief.  Cached per belief; one shortest-path search."""
+    if "chain" in belief._cache:
+        return belief._cache["chain"]
+    plan = _chain(problem, belief)
+    belief._cache["chain"] = plan
+    return plan
+
+
+def _chain(problem: Problem, belief: Belief) -> tuple[int, tuple, tuple, int] | None:
+    from heuristics.pair_grape_s_chain import chain_distances, end_slot, trace_chain
+
+    S = problem.S
+    short = _short(problem, belief).reshape(problem.m, S)
+    slots = belief.slots.astype(np.int64)
+    unassigned = np.flatnonzero(slots < 0)
+    if not short.any() or unassigned.size == 0:
+        return None
+    task = np.where(slots >= 0, slots // S, -1)
+    service = np.where(slots >= 0, slots % S, -1)
+    lengths, _ = chain_distances(problem.caps, short, task, service)
+    for start in (belief.cursor, -1) if belief.made > 0 else (belief.cursor,):
+        candidates = unassigned[unassigned > start]
+        ready = candidates[np.isfinite(lengths[candidates])]
+        if ready.size == 0:
+            continue
+        o = int(ready[0])
+        chain, _ = trace_chain(o, lengths, problem.caps, task, service, np.arange(problem.n))
+        counts = belief.counts(problem).reshape(problem.m, S)
+        found, _ = end_slot(
+            chain[-1], problem.caps, short, counts, task, service, problem.model.key
+        )
+        if found is None:
+            return None
+        robots = tuple(chain[1:])
+        return o, robots, tuple(int(slots[r]) for r in robots), found[0] * S + found[1]
+    return None

@@ -14,12 +14,16 @@ from hypothesis import strategies as st
 
 import proofs
 from cfopt import GridCell, Mission, MissionError
-from heuristics import grape_s, pair_grape_s
+from heuristics import grape_s, pair_grape_s, pair_grape_s_chain
 from heuristics.simulate import simulate
 from proofs.strategies import missions
 
 LOCKSTEP = "complete sync=true"
-CENTRAL = {"grape-s": grape_s, "pair-grape-s": pair_grape_s}
+CENTRAL = {
+    "grape-s": grape_s,
+    "pair-grape-s": pair_grape_s,
+    "pair-grape-s-chain": pair_grape_s_chain,
+}
 
 
 def assert_same_moves(mission: Mission, algorithm: str) -> None:
@@ -44,8 +48,26 @@ def test_lockstep_runs_make_the_centralized_moves(algorithm: str, mission: Missi
 
 @settings(max_examples=30, suppress_health_check=[HealthCheck.too_slow])
 @given(mission=missions(max_robots=12, max_tasks=4, max_services=4, achievable=True))
-def test_lockstep_pair_grape_s_on_achievable_missions(mission: Mission) -> None:
-    assert_same_moves(mission, "pair-grape-s")
+@pytest.mark.parametrize("algorithm", ["pair-grape-s", "pair-grape-s-chain"])
+def test_lockstep_exchanges_on_achievable_missions(algorithm: str, mission: Mission) -> None:
+    assert_same_moves(mission, algorithm)
+
+
+def test_lockstep_chain_exchanges_on_the_seed_family() -> None:
+    """Small 10:5 missions of the seed's generator, where Pair-GRAPE-S's one-hop exchange
+    falls short and chains of several robots are needed (claim P1's family)."""
+    chains = 0
+    for seed in range(40):
+        mission = GridCell(8, 10, 10, 5).mission(seed)
+        assert_same_moves(mission, "pair-grape-s-chain")
+        run = simulate(mission, "pair-grape-s-chain", LOCKSTEP, seed=0)
+        assert run.assignment.percent_utility(mission) == 100.0
+        chains += (
+            any(np.bincount(run.trajectory[:, 0])[it] > 2 for it in np.unique(run.trajectory[:, 0]))
+            if len(run.trajectory)
+            else 0
+        )
+    assert chains > 0  # some runs needed a chain of more than one partner
 
 
 @pytest.mark.parametrize("algorithm", ["grape-s", "pair-grape-s"])
