@@ -49,7 +49,7 @@ import itertools
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -151,13 +151,16 @@ def simulate(
     quiet_factor: int = QUIET_FACTOR,
     reward: str = "paper",
     faults: Faults | None = None,
+    options: Mapping[str, Any] | None = None,
 ) -> Run:
     """Run ``algorithm``'s agents on ``network`` (see the module docstring).
 
     Parameters
     ----------
     mission : cfopt.Mission
-    algorithm : {"grape-s", "pair-grape-s"}
+    algorithm : {"grape-s", "pair-grape-s", "pair-grape-s-chain", "sda"}
+        The algorithms with agents (:data:`DISTRIBUTED`); RACHNA_dt has none (the seed did
+        not run it distributed either).
     network : str or NetworkSpec
         A one-line spec (``"complete latency=uniform:1ms:10ms loss=0.01"``) or a parsed one.
     seed : None, int or numpy.random.Generator
@@ -172,6 +175,9 @@ def simulate(
         transmission, after the network's own draws, with the receivers as an int64 array
         and the send time in nanoseconds; it returns ``(extra_delay_ns, drop)`` arrays of
         the same length, added to the drawn delays and or-ed into the losses.
+    options : mapping, optional
+        The algorithm's own options: for ``"sda"`` ``eps`` (the wage decrement, default 1)
+        and ``resend_tries`` (0, the plain protocol: see :mod:`heuristics.agents.sda`).
 
     Returns
     -------
@@ -198,12 +204,12 @@ def simulate(
     """
     started = time.perf_counter()
     require_mission(mission)
-    _protocol(algorithm)  # an unknown algorithm is refused before anything is built
+    _protocol(algorithm, options)  # an unknown algorithm is refused before anything is built
     spec = network if isinstance(network, NetworkSpec) else NetworkSpec.parse(network)
     limit = _time_limit(time_limit)
     if isinstance(quiet_factor, bool) or not isinstance(quiet_factor, int) or quiet_factor < 1:
         raise MissionError(f"quiet_factor: must be a whole number >= 1, got {quiet_factor!r}")
-    sim = _Simulation(mission, algorithm, spec, seed, limit, quiet_factor, reward, faults)
+    sim = _Simulation(mission, algorithm, spec, seed, limit, quiet_factor, reward, faults, options)
     sim.run()
     return sim.result(time.perf_counter() - started, seed_label(seed))
 
@@ -329,6 +335,7 @@ class Outcome:
     exchanges: int = 0
     pairwise_step_ran: bool = False
     options: tuple[tuple[str, Any], ...] = ()
+    work: int = 0  # counted work of message-driven agents (clocked ones are counted per tick)
 
 
 class Protocol:
@@ -418,17 +425,25 @@ class PairGrapeSChainProtocol(PairGrapeSProtocol):
         return chain_plan(sim.problem, belief) is None
 
 
-def _protocol(algorithm: str) -> Protocol:
-    if algorithm == "grape-s":
-        return GrapeSProtocol()
-    if algorithm == "pair-grape-s":
-        return PairGrapeSProtocol()
-    if algorithm == "pair-grape-s-chain":
-        return PairGrapeSChainProtocol()
+def _protocol(algorithm: str, options: Mapping[str, Any] | None = None) -> Protocol:
+    options = dict(options or {})
     if algorithm == "sda":
         from heuristics.agents.sda import SdaProtocol
 
-        return SdaProtocol()
+        known = ("eps", "resend_tries")
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise MissionError(f"options: sda's agents take {', '.join(known)}, not {unknown[0]!r}")
+        return SdaProtocol(**options)
+    plain = {
+        "grape-s": GrapeSProtocol,
+        "pair-grape-s": PairGrapeSProtocol,
+        "pair-grape-s-chain": PairGrapeSChainProtocol,
+    }
+    if algorithm in plain:
+        if options:
+            raise MissionError(f"options: {algorithm}'s agents take none, got {sorted(options)}")
+        return plain[algorithm]()
     raise MissionError(
         f"algorithm: {algorithm!r} has no distributed agents (available: {', '.join(DISTRIBUTED)})"
     )
@@ -447,6 +462,7 @@ class _Simulation:
         quiet_factor: int,
         reward: str,
         faults: Faults | None = None,
+        options: Mapping[str, Any] | None = None,
     ) -> None:
         self.mission, self.algorithm, self.spec, self.limit = mission, algorithm, spec, limit
         self.faults = faults
@@ -461,7 +477,7 @@ class _Simulation:
         self.reward = reward
         self.quiet_limit = quiet_factor * max(self.network.diameter, 1)
         self.quiet_factor = quiet_factor
-        self.protocol = _protocol(algorithm)
+        self.protocol = _protocol(algorithm, options)
         self.agents: list[Any] = self.protocol.make_agents(self)
         self.inflight = _InFlight(n)
         self.key_r = np.zeros(n, dtype=np.int64)
@@ -488,6 +504,8 @@ class _Simulation:
             heapq.heappush(heap, (self.clocks.tick_time(i, 0), next(self.seq), _TICK, i))
         while heap:
             t, _, kind, payload = heapq.heappop(heap)
+            if kind == _WAKE and self.waking[payload] != t:
+                continue  # a timer the agent has since moved or cleared: not an event
             if t > self.limit:
                 self.cut = True
                 self.now = self.limit
@@ -497,7 +515,7 @@ class _Simulation:
                 self._tick(payload, t)
             elif kind == _HOP:
                 self._hop(payload, t)
-            elif self.waking[payload] == t:
+            else:
                 self.waking[payload] = None
                 self._act(payload, self.agents[payload].wake(t), t)
         self.end = self.limit if self.cut else self.now
@@ -648,7 +666,7 @@ class _Simulation:
             rounds=max((a.ticks for a in self.agents), default=0),
             messages=self.transmissions,
             bytes=self.bytes,
-            work=self.work,
+            work=self.work + outcome.work,
             seconds=seconds,
             seed=seed,
             exchanges=outcome.exchanges,
