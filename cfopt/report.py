@@ -780,15 +780,16 @@ def format_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 def summary_text(trials: Sequence[Trial]) -> str:
     """The summary as plain text under 100 columns (``cfopt audit`` and ``cfopt report``).
 
-    One table per load: per algorithm the percent of optimum and of total (median, min,
-    max), how many trials reached the optimum, the median seconds and megabytes, and how
-    many final partitions are Nash / strictly pairwise / pareto pairwise stable.
+    One table per load: per algorithm the percent of optimum (median, min, max), how many
+    trials reached the optimum, the median seconds and megabytes, and how many final
+    partitions are Nash / strictly pairwise / pareto pairwise stable.  The report files
+    have more (percent of total, maxima, statistics).
     """
     rows = summary_rows(trials)
     missions_at = defaultdict(set)
     for t in trials:
         missions_at[t.load].add((t.cell, t.mission_seed))
-    header = ["algorithm", "% of optimum", "optimal", "% of total", "seconds", "MB"]
+    header = ["algorithm", "% of optimum", "optimal", "seconds", "MB"]
     header.append("Nash/strict/pareto")
     legend = (
         "Cells: median (min, max) over the trials; seconds and MB: median; Nash/strict/pareto: "
@@ -805,7 +806,6 @@ def summary_text(trials: Sequence[Trial]) -> str:
                     r["algorithm"],
                     _range_text(r["percent_optimum"]) + star,
                     f"{r['optimal']}/{n}",
-                    _range_text(r["percent_total"]),
                     _median_text(r["seconds"]),
                     _median_text(r["megabytes"]),
                     f"{r['nash_stable']}/{r['pairwise_stable']}/{r['pareto_stable']} of {n}",
