@@ -92,6 +92,8 @@ _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))
 _PERCENTS = (1.0, 10.0, 50.0)
 
 
+#: The over-subscribed loads of the audit's grids.
+OVER_LOADS = (1.25, 1.5, 2.0)
 #: Memory a sweep holds per trial before running it (its queue entry and key).
 _BYTES_PER_TRIAL = 400
 
@@ -113,16 +115,18 @@ def audit_grid() -> tuple[GridCell, ...]:
     distributed, plus over-subscription.
 
     The seed's 20 cells with 100 and 500 robots (every composition and percent-task
-    level, achievable missions), the 100-robot cells again at load 1.25 (over-subscribed:
-    not every task can be done, only the ILP knows the optimum), and the 100-robot
-    achievable cells on the seed's network (distributed runs of GRAPE-S, Pair-GRAPE-S
-    and SDA).
+    level, achievable missions), the 100-robot cells again at loads 1.25, 1.5 and 2
+    (over-subscribed: not every task can be done, only the ILP knows the optimum), and the
+    100-robot achievable cells on the seed's network (distributed runs of the algorithms
+    that have agents).
 
     >>> cells = audit_grid()
     >>> len(cells), sorted({c.load for c in cells}), sum(c.network is not None for c in cells)
-    (36, [1.0, 1.25], 8)
+    (52, [1.0, 1.25, 1.5, 2.0], 8)
     """
-    over = [c for c in paper_distributed_grid(load=1.25) if c.robots == 100]
+    over = [
+        c for load in OVER_LOADS for c in paper_distributed_grid(load=load) if c.robots == 100
+    ]
     distributed = [c for c in distributed_grid() if c.robots == 100]
     return (*paper_distributed_grid(), *over, *distributed)
 
@@ -134,13 +138,18 @@ def quick_grid() -> tuple[GridCell, ...]:
 
     >>> cells = quick_grid()
     >>> len(cells), sorted({c.load for c in cells}), {c.robots for c in cells}
-    (14, [1.0, 1.25], {100})
+    (22, [1.0, 1.25, 1.5, 2.0], {100})
 
-    Plus two distributed cells (100 robots, 10 % tasks, 5:1 and 10:5, on the seed's
-    network).
+    The over-subscribed cells are at loads 1.25, 1.5 and 2; plus two distributed cells
+    (100 robots, 10 % tasks, 5:1 and 10:5, on the seed's network).
     """
     achievable = [c for c in paper_grid() if c.robots == 100]
-    over = [c for c in paper_grid(load=1.25) if c.robots == 100 and c.percent_tasks == 10]
+    over = [
+        c
+        for load in OVER_LOADS
+        for c in paper_grid(load=load)
+        if c.robots == 100 and c.percent_tasks == 10
+    ]
     distributed = [
         c
         for c in distributed_grid()
@@ -284,7 +293,7 @@ def resolve_grid(
 
     >>> cells, missions = resolve_grid("quick")
     >>> len(cells), missions
-    (14, 2)
+    (22, 2)
     """
     if grid in GRIDS:
         return named_grid(grid, loads), GRIDS[grid][1]
