@@ -26,8 +26,8 @@ from proofs.claims import (
 BUDGET = 4  # grid missions per claim (the search draws 4x as many)
 
 # Verdicts established with this budget and seed 0 (see the report in the closing note);
-# G4, R1 and H4 fail rarely enough that they need the audit's default budget.
-DEFAULT_BUDGET_CLAIMS = ("G4", "R1", "H4")
+# G4, R1, H4 and D1 fail rarely enough that they need the audit's default budget.
+DEFAULT_BUDGET_CLAIMS = ("G4", "R1", "H4", "D1")
 EXPECTED = {
     "L1": VerdictKind.FAILS,
     "T1": VerdictKind.FAILS,
@@ -48,7 +48,7 @@ EXPECTED = {
     "H4": VerdictKind.FAILS,
     "S1": VerdictKind.HOLDS,
     "I1": VerdictKind.HOLDS,
-    "D1": VerdictKind.HOLDS,
+    "D1": VerdictKind.FAILS,  # on a 10-robot 10:5 mission (83.6 %); the grid cells hold
     "D2": VerdictKind.FAILS,
     "D3": VerdictKind.HOLDS,
     "D4": VerdictKind.FAILS,
