@@ -7,11 +7,12 @@
 >>> run.assignment.percent_utility(m), run.iterations, run.rounds
 (100.0, 30, 31)
 >>> sorted(heuristics.ALGORITHMS)
-['grape-s', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
+['grape-s', 'grape-s-select', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
 """
 
 from heuristics._run import Run, belief_bytes, broadcast_cost
 from heuristics.grape_s import grape_s
+from heuristics.grape_s_select import grape_s_select
 from heuristics.pair_grape_s import pair_grape_s
 from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
@@ -27,6 +28,7 @@ __all__ = [
     "broadcast_cost",
     "get_algorithm",
     "grape_s",
+    "grape_s_select",
     "pair_grape_s",
     "pair_grape_s_chain",
     "rachna_dt",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numbers
+import time
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -190,3 +191,27 @@ class Run:
             **({} if self.network is None else {"network": self.network.to_dict()}),
             "assignment": a.to_dict(mission)["assignment"],
         }
+
+
+def moves_run(
+    algorithm: str,
+    task: npt.NDArray[np.int64],
+    service: npt.NDArray[np.int64],
+    moves: list[tuple[int, int, int, int]],
+    *,
+    started: float,
+    seed: Any,
+    **figures: Any,
+) -> Run:
+    """The :class:`Run` of an engine that moved robots on a shared partition: the final
+    ``task``/``service`` arrays, the applied ``moves`` as trajectory rows, the wall-clock
+    time since ``started`` (a ``time.perf_counter()`` reading), the seed's label and the
+    remaining fields (``iterations``, ``rounds``, ``messages``...) as given."""
+    return Run(
+        algorithm=algorithm,
+        assignment=Assignment(task=task, service=service),
+        seconds=time.perf_counter() - started,
+        seed=seed_label(seed),
+        trajectory=np.array(moves, dtype=np.int64).reshape(-1, 4),
+        **figures,
+    )

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, seed_label
+from cfopt import Mission, require_mission
+from heuristics._run import Run, broadcast_cost, check_order, moves_run
 from heuristics.reward import VOID, RewardModel, reward_model
 
 __all__ = ["grape_s"]
@@ -116,17 +116,18 @@ def grape_s(
     rng = np.random.default_rng(seed)
     out = _core(mission.capabilities, mission.requirements, model, order, bool(capped), rng)
     messages, nbytes = broadcast_cost(mission.n_robots, out.rounds)
-    return Run(
-        algorithm="grape-s",
-        assignment=Assignment(task=out.task, service=out.service),
+    return moves_run(
+        "grape-s",
+        out.task,
+        out.service,
+        out.moves,
+        started=started,
+        seed=seed,
         iterations=out.iterations,
         rounds=out.rounds,
         messages=messages,
         bytes=nbytes,
         work=out.work,
-        seconds=time.perf_counter() - started,
-        seed=seed_label(seed),
-        trajectory=np.array(out.moves, dtype=np.int64).reshape(-1, 4),
         options=(("order", order), ("capped", bool(capped)), ("reward", reward)),
     )
 

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, seed_label
+from cfopt import Mission, require_mission
+from heuristics._run import Run, broadcast_cost, check_order, moves_run
 from heuristics.grape_s import SeedLike, _core
 from heuristics.reward import RewardModel, reward_model
 
@@ -99,19 +99,20 @@ def pair_grape_s(
     )
     rounds = first.rounds + second.rounds
     messages, nbytes = broadcast_cost(mission.n_robots, rounds)
-    return Run(
-        algorithm="pair-grape-s",
-        assignment=Assignment(task=second.task, service=second.service),
+    return moves_run(
+        "pair-grape-s",
+        second.task,
+        second.service,
+        first.moves + second.moves,
+        started=started,
+        seed=seed,
         iterations=first.iterations + second.exchanges,
         rounds=rounds,
         messages=messages,
         bytes=nbytes,
         work=first.work + second.work,
-        seconds=time.perf_counter() - started,
-        seed=seed_label(seed),
         exchanges=second.exchanges,
         pairwise_step_ran=second.ran,
-        trajectory=np.array(first.moves + second.moves, dtype=np.int64).reshape(-1, 4),
         options=(("order", order), ("capped", True), ("reward", reward)),
     )
 

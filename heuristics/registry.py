@@ -14,6 +14,7 @@ from typing import Any
 from cfopt import Mission, MissionError
 from heuristics._run import Run
 from heuristics.grape_s import grape_s
+from heuristics.grape_s_select import grape_s_select
 from heuristics.pair_grape_s import pair_grape_s
 from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
@@ -31,6 +32,7 @@ ALGORITHMS: Mapping[str, Algorithm] = MappingProxyType(
         "sda": sda,
         "rachna-dt": rachna_dt,
         "pair-grape-s-chain": pair_grape_s_chain,
+        "grape-s-select": grape_s_select,
     }
 )
 
@@ -39,7 +41,7 @@ def algorithm_names() -> list[str]:
     """The registered names, sorted.
 
     >>> algorithm_names()
-    ['grape-s', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
+    ['grape-s', 'grape-s-select', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
     """
     return sorted(ALGORITHMS)
 
@@ -53,7 +55,7 @@ def get_algorithm(name: str) -> Algorithm:
     >>> get_algorithm("grape")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    cfopt.errors.MissionError: unknown algorithm 'grape' (known: grape-s, pair-grape-s...)
+    cfopt.errors.MissionError: unknown algorithm 'grape' (known: grape-s, grape-s-select, ...)
     """
     try:
         return ALGORITHMS[name]

@@ -1033,10 +1033,12 @@ def _build() -> dict[str, Claim]:
         ),
     ]
     from proofs.claims_chain import chain_claims
+    from proofs.claims_select import select_claims
     from proofs.distributed import distributed_claims
 
     claims += distributed_claims()
     claims += chain_claims()
+    claims += select_claims()
     return {c.id: c for c in claims}
 
 

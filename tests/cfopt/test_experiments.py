@@ -204,7 +204,7 @@ def test_named_grids() -> None:
     assert {c.robots for c in achievable} == {100, 500}
     assert {c.composition for c in achievable} == {"5:1", "5:5", "10:1", "10:5"}
     assert {c.percent_tasks for c in achievable if c.robots == 500} == {1, 10, 50}
-    assert {c.load for c in cells} == {1.0, 1.25}
+    assert {c.load for c in cells} == {1.0, 1.25, 1.5, 2.0}
     assert {c.robots for c in quick_grid()} == {100}
     with pytest.raises(MissionError, match="fixed loads"):
         named_grid("audit", [1.25])

@@ -24,6 +24,7 @@ import pytest
 
 from cfopt import GridCell, Mission, MissionError
 from cfopt.experiments import Sweep, run_sweep
+from heuristics import ALGORITHMS
 
 # ---------------------------------------------------------------------------- helpers
 BASE = Mission.from_arrays(
@@ -429,7 +430,7 @@ SWEEP = [
 ]  # fmt: skip
 
 
-TRIALS = 8 * 5  # missions x (exact + 4 heuristics)
+TRIALS = 8 * (1 + len(ALGORITHMS))  # missions x (exact + every heuristic)
 
 
 def _stored(store: Path) -> int:

@@ -26,8 +26,9 @@ from proofs.claims import (
 BUDGET = 4  # grid missions per claim (the search draws 4x as many)
 
 # Verdicts established with this budget and seed 0 (see the report in the closing note);
-# G4, R1, H4 and D1 fail rarely enough that they need the audit's default budget.
-DEFAULT_BUDGET_CLAIMS = ("G4", "R1", "H4", "D1")
+# G4, R1, H4 and D1 fail rarely enough that they need the audit's default budget; O3 is a
+# median, which 4 missions per load do not estimate well (98.5 % at load 2, 99.5 % at 8).
+DEFAULT_BUDGET_CLAIMS = ("G4", "R1", "H4", "D1", "O3")
 EXPECTED = {
     "L1": VerdictKind.FAILS,
     "T1": VerdictKind.FAILS,
@@ -56,6 +57,9 @@ EXPECTED = {
     "X9": VerdictKind.HOLDS,
     "C1": VerdictKind.HOLDS,
     "C2": VerdictKind.FAILS,
+    "O1": VerdictKind.HOLDS,
+    "O2": VerdictKind.FAILS,
+    "O3": VerdictKind.HOLDS,
 }
 
 
