@@ -287,6 +287,71 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
     return run
 
 
+def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
+    sub.add_argument(
+        "--missions",
+        type=_whole_number(1),
+        default=25,
+        metavar="N",
+        help="missions per cell (default: the seed's 25; 2 gives a first look in minutes)",
+    )
+    sub.add_argument(
+        "--centralized-only",
+        action="store_true",
+        help="skip the seed's distributed evaluation (the simulator's runs)",
+    )
+    sub.add_argument(
+        "-o",
+        "--output",
+        default="cfopt-reproduce",
+        metavar="DIR",
+        help="report directory, created if missing (its parent folder must exist; default: "
+        "cfopt-reproduce)",
+    )
+    sub.add_argument(
+        "--store",
+        default=None,
+        metavar="FILE",
+        help="SQLite result store, created or resumed (default: DIR/trials.sqlite)",
+    )
+    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument("--json", action="store_true", help="print one JSON object")
+    _add_workers_option(sub)
+    _add_quiet_option(sub)
+
+    def run(args: argparse.Namespace) -> int:
+        from cfopt._progress import Progress
+        from cfopt.reproduce import run_reproduce
+
+        result = run_reproduce(
+            args.output,
+            missions=args.missions,
+            workers=args.workers,
+            store=args.store,
+            distributed=not args.centralized_only,
+            force=args.force,
+            progress=Progress.auto(quiet=args.quiet),
+        )
+        if args.json:
+            emit_json(result.to_dict())
+        else:
+            counts = result.counts()
+            print(
+                f"{plural(len(result.comparisons), 'published figure')}: "
+                + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+            )
+            print(
+                f"report: {result.directory / 'reproduction.md'}  "
+                f"{result.directory / 'reproduction.html'}"
+            )
+        code = EXIT_OK
+        for outcome in result.outcomes:
+            code = max(code, _report_failures(outcome))
+        return code
+
+    return run
+
+
 def _add_quiet_option(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--quiet",
@@ -828,6 +893,11 @@ _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] =
     ("run", "one heuristic on a mission: utility, cost and stability", _add_run),
     ("check", "validity, utility and stability of an assignment", _add_check),
     ("audit", "the main job: the seed's claims and the optimal-gap report", _add_audit),
+    (
+        "reproduce",
+        "the seed paper's grids, every table and figure beside the paper's published value",
+        _add_reproduce,
+    ),
     ("sweep", "run grid cells x missions x algorithms into a result store", _add_sweep),
     ("report", "tables, statistics and plots from a result store", _add_report),
 ]

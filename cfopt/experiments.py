@@ -124,9 +124,7 @@ def audit_grid() -> tuple[GridCell, ...]:
     >>> len(cells), sorted({c.load for c in cells}), sum(c.network is not None for c in cells)
     (52, [1.0, 1.25, 1.5, 2.0], 8)
     """
-    over = [
-        c for load in OVER_LOADS for c in paper_distributed_grid(load=load) if c.robots == 100
-    ]
+    over = [c for load in OVER_LOADS for c in paper_distributed_grid(load=load) if c.robots == 100]
     distributed = [c for c in distributed_grid() if c.robots == 100]
     return (*paper_distributed_grid(), *over, *distributed)
 
@@ -386,17 +384,23 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
 
 # ------------------------------------------------------------------- code version
 #: Modules left out of :func:`code_version` (they do not shape a trial's values).
-_NOT_TRIAL_SOURCES = {"cfopt": ("cli.py", "report.py", "audit.py", "_progress.py", "__main__.py")}
+_NOT_TRIAL_SOURCES = {
+    "cfopt": (
+        "cli.py", "report.py", "audit.py", "reproduce.py", "paper.py", "_progress.py",
+        "__main__.py",
+    )
+}  # fmt: skip
 
 
 def code_version(scope: str = "trials") -> str:
     """``"<cfopt version>+<hash>"``: a digest of the sources that shape a result.
 
     With ``scope="trials"`` the hash covers ``cfopt`` (all modules but the CLI, the
-    report and the audit's orchestration), ``heuristics`` and ``proofs/stability.py``:
-    any change there is a new code version, and a sweep re-runs its trials rather than
-    mixing results of different code.  ``scope="claims"`` covers all of ``proofs`` as
-    well (the claims' checks), and keys the audit's stored claim verdicts.
+    report, the orchestration of the audit and of the reproduction, and the paper's
+    figures), ``heuristics`` and ``proofs/stability.py``: any change there is a new code
+    version, and a sweep re-runs its trials rather than mixing results of different code.
+    ``scope="claims"`` covers all of ``proofs`` as well (the claims' checks), and keys the
+    audit's stored claim verdicts.
 
     >>> code_version().startswith(__version__ + "+")
     True
