@@ -55,7 +55,6 @@ def test_utility_tables_have_the_papers_layout(table: str, evaluation: str, rows
                      for f in entries)  # fmt: skip
     assert len(by_row) == rows and set(by_row.values()) == {3}
     for key in by_row:
-        s, k, p, n = key
         stats = {
             f.statistic: f.value
             for f in entries
