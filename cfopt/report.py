@@ -88,13 +88,19 @@ def _megabytes(t: Trial) -> float | None:
     return None if t.bytes is None else t.bytes / 1e6
 
 
-#: The metrics of the tables and plots, in report order.
+def _work(t: Trial) -> float | None:
+    return None if t.work is None else float(t.work)
+
+
+#: The metrics of the tables and plots, in report order.  ``work`` is each algorithm's
+#: documented unit of computation (GRAPE-S: slot examinations), the same on every machine.
 METRICS: dict[str, Metric] = {
     m.name: m
     for m in (
         Metric("percent_optimum", "Percent of optimum", "%", lambda t: t.percent_optimum),
         Metric("percent_total", "Percent of total utility", "%", lambda t: t.percent_total),
         Metric("seconds", "Runtime", "s", lambda t: t.seconds, False, True),
+        Metric("work", "Counted work (machine-independent runtime)", "units", _work, True, True),
         Metric("megabytes", "Total communication", "MB", _megabytes, True, True),
         Metric("sim_seconds", "Simulated runtime", "s", lambda t: t.sim_seconds, True, True),
     )
@@ -255,6 +261,7 @@ def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
         "optimal",
         "% of total: median (min, max)",
         "seconds: median (max)",
+        "work: median (max)",
         "MB: median (max)",
         "Nash stable",
         "pairwise stable",
@@ -281,6 +288,7 @@ def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
                 f"{r['optimal']}/{n}",
                 rng(r["percent_total"]),
                 rng(r["seconds"], False),
+                rng(r["work"], False),
                 rng(r["megabytes"], False),
                 f"{r['nash_stable']}/{n}",
                 f"{r['pairwise_stable']}/{n}",
@@ -352,6 +360,10 @@ class TestResult:
         Pairwise p-values: Mann-Whitney-Wilcoxon after Kruskal-Wallis, Conover after
         Friedman (unadjusted, as in the seed).
     note : str
+    mean_ranks : tuple of (str, float)
+        Each group's mean rank (Kruskal-Wallis and Mann-Whitney: over the pooled values;
+        Friedman: within each block): the direction of an effect -- a lower rank is a
+        smaller value.
     """
 
     __test__ = False  # not a pytest test class
@@ -367,6 +379,13 @@ class TestResult:
     p_value: float | None
     posthoc: tuple[tuple[str, str, float], ...] = field(default=())
     note: str = ""
+    mean_ranks: tuple[tuple[str, float], ...] = field(default=())
+
+    @property
+    def direction(self) -> str:
+        """The groups by mean rank, lowest first (e.g. ``"sda < grape-s < rachna-dt"``)."""
+        ordered = sorted(self.mean_ranks, key=lambda r: r[1])
+        return " < ".join(f"{g} ({r:.3g})" for g, r in ordered)
 
     @property
     def significant(self) -> bool:
@@ -398,6 +417,7 @@ def _kruskal(
             "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, None, None,
             note="no variation: every value is the same",
         )  # fmt: skip
+    ranks = _pooled_mean_ranks(labels, groups)
     h, p = stats.kruskal(*groups)
     posthoc = []
     for i in range(len(labels)):
@@ -406,8 +426,22 @@ def _kruskal(
             posthoc.append((labels[i], labels[j], float(pp)))
     return TestResult(
         "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, float(h), float(p),
-        tuple(posthoc),
+        tuple(posthoc), mean_ranks=ranks,
     )  # fmt: skip
+
+
+def _pooled_mean_ranks(
+    labels: Sequence[str], groups: Sequence[Sequence[float]]
+) -> tuple[tuple[str, float], ...]:
+    """Each group's mean rank among all values (average ranks for ties)."""
+    from scipy import stats
+
+    pooled = stats.rankdata(np.concatenate([np.asarray(g, dtype=float) for g in groups]))
+    out, start = [], 0
+    for label, group in zip(labels, groups, strict=True):
+        out.append((label, float(pooled[start : start + len(group)].mean())))
+        start += len(group)
+    return tuple(out)
 
 
 def _mannwhitney(
@@ -425,7 +459,7 @@ def _mannwhitney(
     u, p = stats.mannwhitneyu(a, b, alternative="two-sided")
     return TestResult(
         "Mann-Whitney-Wilcoxon", subject, metric, factor, subset, tuple(labels),
-        len(a) + len(b), float(u), float(p),
+        len(a) + len(b), float(u), float(p), mean_ranks=_pooled_mean_ranks(labels, [a, b]),
     )  # fmt: skip
 
 
@@ -444,8 +478,13 @@ def _friedman(
         return None
     matrix = np.asarray(rows)
     base = ("Friedman", "algorithms", metric.name, "algorithm", subset, tuple(algorithms))
+    ranks = np.apply_along_axis(stats.rankdata, 1, matrix).mean(axis=0)
+    mean_ranks = tuple(zip(algorithms, (float(r) for r in ranks), strict=True))
     if _all_equal([matrix.ravel().tolist()]) or (matrix == matrix[:, :1]).all():
-        return TestResult(*base, len(rows), None, None, note="no variation: ties in every block")
+        return TestResult(
+            *base, len(rows), None, None, note="no variation: ties in every block",
+            mean_ranks=mean_ranks,
+        )  # fmt: skip
     import scikit_posthocs
 
     chi2, p = stats.friedmanchisquare(*matrix.T)
@@ -457,7 +496,9 @@ def _friedman(
         for i in range(len(algorithms))
         for j in range(i + 1, len(algorithms))
     ]
-    return TestResult(*base, len(rows), float(chi2), float(p), tuple(posthoc))
+    return TestResult(
+        *base, len(rows), float(chi2), float(p), tuple(posthoc), mean_ranks=mean_ranks
+    )
 
 
 _FACTORS = (
@@ -537,7 +578,10 @@ def _factor_subset(trials: Sequence[Trial], factor: str) -> tuple[str, list[Tria
 
 
 def _statistics_table(results: Sequence[TestResult]) -> tuple[list[str], list[list[str]]]:
-    header = ["test", "subject", "metric", "groups", "subset", "n", "statistic", "p", "post-hoc"]
+    header = [
+        "test", "subject", "metric", "groups", "subset", "n", "statistic", "p",
+        "mean ranks (lowest first)", "post-hoc",
+    ]  # fmt: skip
     rows = []
     for r in results:
         stat = "-" if r.statistic is None else f"{r.statistic:.4g}"
@@ -552,6 +596,7 @@ def _statistics_table(results: Sequence[TestResult]) -> tuple[list[str], list[li
                 str(r.n),
                 stat,
                 _format_p(r.p_value) + (" *" if r.significant else ""),
+                r.direction or "-",
                 post or r.note,
             ]
         )
@@ -577,7 +622,7 @@ def _figure_name(metric: str, load: float) -> str:
     return f"fig_{metric}_load{load:g}".replace(".", "_") + ".png"
 
 
-_FIGURE_METRICS = ("percent_optimum", "seconds", "megabytes", "sim_seconds")
+_FIGURE_METRICS = ("percent_optimum", "seconds", "work", "megabytes", "sim_seconds")
 
 
 def _figures(loads: Iterable[tuple[float, bool]]) -> list[tuple[str, float, str]]:
@@ -1163,7 +1208,9 @@ def _write_files(
             "tests across collective sizes and percent tasks, Mann-Whitney-Wilcoxon (U) "
             "between service-type and services-per-robot levels, each per heuristic; Friedman "
             "(chi-square) across the heuristics with missions as blocks and Conover's post-hoc "
-            "test. scipy.stats and scikit-posthocs; p-values unadjusted; * marks p < 0.05.",
+            "test. scipy.stats and scikit-posthocs; p-values unadjusted; * marks p < 0.05. Mean "
+            "ranks give the direction: a lower rank is a smaller value (faster, less "
+            "communication, lower utility).",
         ),
         ("table", (stats_header, stats_body)),
     ]
