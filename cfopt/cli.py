@@ -428,6 +428,20 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         help="sda: the wage decrement (default 1); rachna-dt: the wage increase (default 1/n)",
     )
     sub.add_argument(
+        "--medium",
+        choices=("broadcast", "unicast"),
+        default=None,
+        help="how messages are counted: broadcast (default: one transmission reaches every "
+        "neighbour, the seed's UDP) or unicast (one message per receiver)",
+    )
+    sub.add_argument(
+        "--encoding",
+        choices=("full", "compact"),
+        default=None,
+        help="belief size: full (default, 16 + 4 n bytes) or compact (slots bit-packed, "
+        "ceil(log2(m S + 1)) bits each; the auctions send no beliefs)",
+    )
+    sub.add_argument(
         "--max-rounds",
         type=_whole_number(1),
         default=None,
@@ -461,12 +475,18 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         m = load_mission(args.mission)
         _check_output_free(args)
         options = _auction_options(args)
+        model = _model_options(args)
         if args.network is not None:
             if options:
                 raise MissionError("--eps and --max-rounds: not for distributed runs")
+            if model:
+                raise MissionError(
+                    "--medium and --encoding: not for distributed runs (the network spec's "
+                    "medium= decides)"
+                )
             result = _simulated(args, m)
         else:
-            result = algorithm(m, seed=args.seed, order=args.order, **options)
+            result = algorithm(m, seed=args.seed, order=args.order, **options, **model)
         a = result.assignment
         out = result.to_dict(m)
         assignment = out.pop("assignment")
@@ -523,6 +543,11 @@ def _auction_options(args: argparse.Namespace) -> dict[str, Any]:
             raise MissionError("--max-rounds: only for rachna-dt")
         options["max_rounds"] = args.max_rounds
     return options
+
+
+def _model_options(args: argparse.Namespace) -> dict[str, Any]:
+    """``--medium`` / ``--encoding`` as the algorithm's keyword options (when given)."""
+    return {k: v for k in ("medium", "encoding") if (v := getattr(args, k)) is not None}
 
 
 def _simulated(args: argparse.Namespace, mission: Mission) -> Any:

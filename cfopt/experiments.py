@@ -554,6 +554,7 @@ def run_trial(
             work=run.work,
             pairwise_step_ran=run.pairwise_step_ran if algorithm == "pair-grape-s" else None,
             algorithm_seed=mission_seed,
+            communication=getattr(run, "communication", None) or None,
         )
     utility = assignment.utility(mission)
     return Trial(

@@ -29,9 +29,9 @@ __all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "store_lock"]
 
 #: The algorithm name of the exact solve's trials.
 EXACT = "exact"
-_SCHEMA_VERSION = "3"
+_SCHEMA_VERSION = "4"
 #: Older schemas this cfopt reads (and, when it writes, upgrades in place).
-_READABLE_SCHEMAS = ("2", "3")
+_READABLE_SCHEMAS = ("2", "3", "4")
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -94,6 +94,13 @@ class Trial:
         A distributed trial's messages on the medium.
     converged, beliefs_agree, cut : bool or None
         A distributed trial's ending (see :class:`heuristics.simulate.NetworkReport`).
+    communication : tuple of (str, str, int, int), or None
+        A centralized run's messages and bytes under every communication model,
+        ``(medium, encoding, messages, bytes)`` per row (:attr:`heuristics.Run.communication`,
+        :mod:`heuristics.communication`); ``messages`` and ``bytes`` above are the row of
+        the algorithm's default model (broadcast, full).  ``None`` for ``exact``, for
+        distributed trials, for algorithms that do not count by model and for trials
+        stored before schema 4.  Stored as JSON text (a list of 4-element lists).
     """
 
     cell: str
@@ -138,6 +145,7 @@ class Trial:
     converged: bool | None = None
     beliefs_agree: bool | None = None
     cut: bool | None = None
+    communication: tuple[tuple[str, str, int, int], ...] | None = None
 
     @property
     def optimum_proven(self) -> bool:
@@ -181,15 +189,54 @@ _OPTIONAL_FIELDS = {
     "percent_optimum", "iterations", "rounds", "messages", "bytes", "work",
     "pairwise_step_ran", "algorithm_seed", "network", "sim_seconds", "convergence_seconds",
     "transmissions", "receptions", "losses", "converged", "beliefs_agree", "cut",
+    "communication",
 }  # fmt: skip
 #: Columns added by schema 3 (distributed trials); a schema-2 store gains them, empty.
 _SCHEMA_3_COLUMNS = (
     "network", "sim_seconds", "convergence_seconds", "transmissions", "receptions", "losses",
     "converged", "beliefs_agree", "cut",
 )  # fmt: skip
+#: Columns added by schema 4 (the per-trial communication table, JSON text); an older
+#: store gains them, empty.
+_SCHEMA_4_COLUMNS = ("communication",)
+#: The columns each older schema lacks.
+_LATER_COLUMNS = {
+    "2": set(_SCHEMA_3_COLUMNS) | set(_SCHEMA_4_COLUMNS),
+    "3": set(_SCHEMA_4_COLUMNS),
+}
+
+
+def _communication_json(table: Any) -> str | None:
+    """A trial's communication table as the JSON text stored (``None`` stays ``None``)."""
+    if table is None:
+        return None
+    return json.dumps([[str(md), str(en), int(ms), int(by)] for md, en, ms, by in table])
+
+
+def _communication_table(text: Any) -> tuple[tuple[str, str, int, int], ...] | None:
+    """The stored JSON text back as a table; ``None`` when it is not one."""
+    try:
+        rows = json.loads(text)
+    except (TypeError, ValueError):
+        return None
+    if not isinstance(rows, list):
+        return None
+    table = []
+    for row in rows:
+        if not (
+            isinstance(row, list)
+            and len(row) == 4
+            and all(isinstance(v, str) for v in row[:2])
+            and all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in row[2:])
+        ):
+            return None
+        table.append((row[0], row[1], row[2], row[3]))
+    return tuple(table)
 
 
 def _kind(name: str) -> str:
+    if name == "communication":
+        return "communication table (JSON)"
     if name in _TEXT_FIELDS:
         return "text"
     if name in _BOOL_FIELDS:
@@ -198,6 +245,8 @@ def _kind(name: str) -> str:
 
 
 def _fits(value: Any, kind: str) -> bool:
+    if kind == "communication table (JSON)":
+        return isinstance(value, str) and _communication_table(value) is not None
     if kind == "text":
         return isinstance(value, str)
     if kind == "bool":
@@ -222,6 +271,8 @@ def _trial_from_row(row: tuple[Any, ...], where: str) -> Trial:
             )
         if kind == "bool":
             values[name] = bool(value)
+        elif name == "communication":
+            values[name] = _communication_table(value)
     return Trial(**values)
 
 
@@ -239,7 +290,7 @@ def _column_type(name: str) -> str:
         return _COLUMN_TYPES[name]
     if name in _INT_FIELDS or name in _BOOL_FIELDS:
         return "INTEGER"
-    return "TEXT" if name in _TEXT_FIELDS else "REAL"
+    return "TEXT" if name in _TEXT_FIELDS or name == "communication" else "REAL"
 
 
 def _schema() -> str:
@@ -348,7 +399,7 @@ class ResultStore:
             self._upgrade()
         columns = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
         self._columns = columns
-        later = set(_SCHEMA_3_COLUMNS) if version == "2" else set()
+        later = _LATER_COLUMNS.get(version, set())
         missing = [f for f in _TRIAL_FIELDS if f not in columns and f not in later]
         if missing:
             raise MissionError(
@@ -359,11 +410,12 @@ class ResultStore:
         self._has_sweeps = create or "sweeps" in tables
 
     def _upgrade(self) -> None:
-        """Schema 2 -> 3: the distributed trials' columns, empty for the stored trials."""
+        """Schema 2 -> 3 -> 4, in one transaction: the distributed trials' columns (3) and
+        the communication table's (4), empty for the stored trials."""
         db = self._db
         with self._transaction():
             present = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
-            for column in _SCHEMA_3_COLUMNS:
+            for column in (*_SCHEMA_3_COLUMNS, *_SCHEMA_4_COLUMNS):
                 if column not in present:
                     kind = _column_type(column)
                     db.execute(f"ALTER TABLE trials ADD COLUMN {column} {kind}")
@@ -397,6 +449,7 @@ class ResultStore:
         """Insert and commit one trial; ``False`` when its key was already stored."""
         values = [getattr(trial, name) for name in _TRIAL_FIELDS]
         values = [int(v) if isinstance(v, bool) else v for v in values]
+        values[_TRIAL_FIELDS.index("communication")] = _communication_json(trial.communication)
         placeholders = ", ".join("?" * len(values))
         with self._transaction():
             cursor = self._db.execute(

@@ -7,7 +7,9 @@ belief (lines 4-9), changes only its own belief, then all robots broadcast to al
 neighbours (line 10) and run the distributed mutex on the messages received (lines
 11-18), keeping the belief with the highest ``(r, time, id)``.  A round in which no robot
 changed its belief is the end (the partition is Nash stable).  Messages are built as
-bytes (:func:`encode_belief`) and counted as sent.
+bytes (:func:`encode_belief`, in the run's encoding) and counted as sent on the run's
+medium (:mod:`heuristics.communication`): one transmission per robot and round when
+broadcast (with at least one neighbour), one message per neighbour when unicast.
 
 Nothing here is optimised: it is O(n (n + P)) Python operations per round, with ``P`` the
 slots a robot examines.  :func:`heuristics.grape_s` must produce the same trajectory.
@@ -22,6 +24,7 @@ import numpy as np
 
 from cfopt import Assignment, Mission
 from heuristics._run import Run, check_order, seed_label
+from heuristics.communication import comm_model, slot_bits
 from heuristics.reward import VOID, reward_model
 
 __all__ = ["encode_belief", "grape_s_reference"]
@@ -35,15 +38,24 @@ class _Belief:
     partition: tuple[int, ...]  # per robot its slot j * S + s, -1 = void task
 
 
-def encode_belief(belief: _Belief) -> bytes:
-    """A belief as sent: int32 r, int32 id, int64 time, then int32 slot per robot.
+def encode_belief(belief: _Belief, encoding: str = "full", n_slots: int = 0) -> bytes:
+    """A belief as sent: int32 r, int32 id, int64 time, then the slots: ``full``, one
+    int32 per robot (-1 void); ``compact``, each robot's slot (``n_slots`` for void) in
+    ``ceil(log2(n_slots + 1))`` bits, most significant first, zero-padded to whole bytes.
 
     >>> len(encode_belief(_Belief(3, 17, 2, (-1, 4, 0))))
     28
+    >>> encode_belief(_Belief(3, 17, 2, (-1, 4, 0)), "compact", 6)[16:].hex()  # 110 100 000
+    'd000'
     """
     header = np.array([belief.r, belief.robot], dtype="<i4").tobytes()
     header += np.array([belief.time], dtype="<i8").tobytes()
-    return header + np.array(belief.partition, dtype="<i4").tobytes()
+    if encoding == "full":
+        return header + np.array(belief.partition, dtype="<i4").tobytes()
+    values = np.array([n_slots if p < 0 else p for p in belief.partition], dtype=np.int64)
+    shifts = np.arange(slot_bits(n_slots) - 1, -1, -1, dtype=np.int64)
+    bits = ((values[:, None] >> shifts[None, :]) & 1).astype(np.uint8).ravel()
+    return header + np.packbits(bits).tobytes()
 
 
 def grape_s_reference(
@@ -53,6 +65,8 @@ def grape_s_reference(
     order: str = "index",
     capped: bool = False,
     reward: str = "paper",
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """GRAPE-S by per-robot beliefs and the distributed mutex (slow; the specification).
 
@@ -68,9 +82,11 @@ def grape_s_reference(
     """
     started = time.perf_counter()
     check_order(order)
+    comm = comm_model(medium, encoding)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)
     n, S = mission.n_robots, mission.n_services
+    n_slots = mission.n_tasks * S
     reqs = mission.requirements.tolist()
     services_of = [np.flatnonzero(row).tolist() for row in mission.capabilities]
     tasks_of = [np.flatnonzero(mission.requirements[:, s]).tolist() for s in range(S)]
@@ -118,9 +134,10 @@ def grape_s_reference(
         # Line 10: broadcast to every neighbour (fully connected), receive theirs.
         sent = list(beliefs)
         for i in range(n):
-            size = len(encode_belief(sent[i]))
-            messages += n - 1
-            nbytes += size * (n - 1)
+            size = len(encode_belief(sent[i], comm.encoding, n_slots))
+            sends = n - 1 if comm.medium == "unicast" else min(n - 1, 1)
+            messages += sends
+            nbytes += size * sends
         # Lines 11-18: the distributed mutex over the received messages.
         for i in range(n):
             mine = beliefs[i]
@@ -157,6 +174,7 @@ def grape_s_reference(
             ("order", order),
             ("capped", bool(capped)),
             ("reward", reward),
+            *comm.options,
             ("engine", "reference"),
         ),
     )

@@ -1,4 +1,8 @@
-"""The frozen result every heuristic returns, and the communication model they share."""
+"""The frozen result every heuristic returns, and the historical (unicast) message count.
+
+The communication models themselves (broadcast or unicast medium, full or compact belief
+encoding) are in :mod:`heuristics.communication`.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +15,13 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError
+from heuristics.communication import (
+    HEADER_BYTES,
+    ROBOT_ENTRY_BYTES,
+    CommModel,
+    Table,
+    table_cost,
+)
 
 __all__ = [
     "HEADER_BYTES",
@@ -23,16 +34,13 @@ __all__ = [
     "seed_label",
 ]
 
-#: Bytes of a belief message's header: evolution number ``r`` and time stamp, int64 each.
-HEADER_BYTES = 16
-#: Bytes per robot entry of the partition ``Pi``: one int32 slot index ``j * S + s`` (-1 void).
-ROBOT_ENTRY_BYTES = 4
 #: Robot orders the GRAPE-S engines accept.
 ORDERS = ("index", "random")
 
 
 def belief_bytes(n_robots: int) -> int:
-    """Size of one ``(r, time, Pi)`` message: ``16 + 4 n`` bytes.
+    """Size of one ``(r, time, Pi)`` message in the ``full`` encoding: ``16 + 4 n`` bytes
+    (:func:`heuristics.communication.belief_size` gives every encoding).
 
     >>> belief_bytes(100)
     416
@@ -41,17 +49,19 @@ def belief_bytes(n_robots: int) -> int:
 
 
 def broadcast_cost(n_robots: int, rounds: int) -> tuple[int, int]:
-    """Messages and bytes of ``rounds`` fully connected broadcast rounds.
+    """Messages and bytes of ``rounds`` fully connected belief rounds, counted point to
+    point (the ``unicast`` medium, ``full`` encoding of :mod:`heuristics.communication`).
 
     Every robot sends its belief to each of its ``n - 1`` neighbours every round
     (algorithms.md §3), so a round costs ``n (n - 1)`` messages of
-    :func:`belief_bytes` bytes each.  Exact Python integers.
+    :func:`belief_bytes` bytes each.  Exact Python integers.  The engines' default is
+    now the ``broadcast`` medium (``n`` transmissions a round):
+    ``CommModel().rounds_cost(n, rounds, belief_bytes(n))``.
 
     >>> broadcast_cost(100, 101)
     (999900, 415958400)
     """
-    messages = rounds * n_robots * max(n_robots - 1, 0)
-    return messages, messages * belief_bytes(n_robots)
+    return CommModel("unicast", "full").rounds_cost(n_robots, rounds, belief_bytes(n_robots))
 
 
 def check_order(order: str) -> str:
@@ -89,7 +99,10 @@ class Run:
     rounds : int
         Communication rounds, quiet rounds included.
     messages, bytes : int
-        Point-to-point sends and their total size under the algorithm's documented model.
+        Messages and their total size under the run's communication model
+        (:mod:`heuristics.communication`; ``options`` records ``medium`` and ``encoding``
+        for the engines that take them, default broadcast/full: one transmission per
+        broadcast), as the algorithm's docstring documents.
     work : int
         Counted computation in the algorithm's documented unit (for GRAPE-S: slot
         examinations, see :func:`heuristics.grape_s`).
@@ -113,6 +126,12 @@ class Run:
         convergence, transmissions, receptions, losses, bytes, whether the run converged,
         whether the robots' beliefs agree, whether it was cut); ``None`` for the
         centralized engines.
+    communication : tuple of (str, str, int, int)
+        The centralized engines' ``(medium, encoding, messages, bytes)`` under every model
+        of :data:`heuristics.communication.MODELS` (broadcast/full, broadcast/compact,
+        unicast/full, unicast/compact), so that models compare without running again;
+        ``messages`` and ``bytes`` are the row of the run's own model.  Empty for the
+        runs that do not count by model (distributed runs, which count real payloads).
 
     Notes
     -----
@@ -134,11 +153,20 @@ class Run:
     trajectory: npt.NDArray[np.int64] = field(default_factory=_empty_trajectory)
     options: tuple[tuple[str, Any], ...] = ()
     network: Any = None
+    communication: Table = ()
 
     def __post_init__(self) -> None:
         traj = np.array(self.trajectory, dtype=np.int64, copy=True).reshape(-1, 4)
         traj.setflags(write=False)
         object.__setattr__(self, "trajectory", traj)
+        object.__setattr__(self, "communication", tuple(map(tuple, self.communication)))
+
+    def communication_cost(
+        self, medium: str = "broadcast", encoding: str = "full"
+    ) -> tuple[int, int]:
+        """``(messages, bytes)`` of this run under another model, from :attr:`communication`
+        (:class:`cfopt.MissionError` when the run has no such table)."""
+        return table_cost(self.communication, CommModel(medium, encoding))
 
     def replace_seconds(self, seconds: float) -> Run:
         """A copy with another ``seconds`` (to compare runs without their timing)."""
@@ -189,6 +217,16 @@ class Run:
             "pairwise_step_ran": self.pairwise_step_ran,
             "options": dict(self.options),
             **({} if self.network is None else {"network": self.network.to_dict()}),
+            **(
+                {}
+                if not self.communication
+                else {
+                    "communication": [
+                        {"medium": md, "encoding": en, "messages": ms, "bytes": by}
+                        for md, en, ms, by in self.communication
+                    ]
+                }
+            ),
             "assignment": a.to_dict(mission)["assignment"],
         }
 

@@ -15,7 +15,8 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, moves_run
+from heuristics._run import Run, check_order, moves_run
+from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.reward import VOID, RewardModel, reward_model
 
 __all__ = ["grape_s"]
@@ -34,6 +35,8 @@ def grape_s(
     order: str = "index",
     capped: bool = False,
     reward: str = "paper",
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run GRAPE-S (centralized, synchronous, fully connected) on ``mission``.
 
@@ -50,11 +53,19 @@ def grape_s(
         phase).
     reward : {"paper", "utility"}
         The reward weighting, see :mod:`heuristics.reward`.
+    medium : {"broadcast", "unicast"}, default "broadcast"
+        How ``messages`` and ``bytes`` count a belief sent to all neighbours: one
+        transmission (the seed's UDP broadcasts) or one message per receiver
+        (:mod:`heuristics.communication`).
+    encoding : {"full", "compact"}, default "full"
+        The belief's encoding: ``16 + 4 n`` bytes, or the slots bit-packed.
 
     Returns
     -------
     Run
-        ``algorithm="grape-s"``; ``trajectory`` lists the applied moves.
+        ``algorithm="grape-s"``; ``trajectory`` lists the applied moves; ``options``
+        records ``medium`` and ``encoding``; ``communication`` holds the counts under
+        every model.
 
     Notes
     -----
@@ -72,8 +83,11 @@ def grape_s(
 
     Counting.  ``iterations`` = rounds with a move; ``rounds`` = iterations + 1 (the quiet
     last round).  Every robot broadcasts ``(r, time, Pi)`` to its ``n - 1`` neighbours
-    every round: ``messages = rounds n (n - 1)``, each message ``16 + 4 n`` bytes (int32
-    ``r``, int32 id, int64 time stamp, one int32 slot per robot).  ``work`` counts *slot
+    every round: ``messages = rounds n`` transmissions under ``medium="broadcast"``,
+    ``rounds n (n - 1)`` messages under ``"unicast"`` (none when ``n = 1``); each is one
+    belief, ``16 + 4 n`` bytes with ``encoding="full"`` (int32 ``r``, int32 id, int64 time
+    stamp, one int32 slot per robot), ``16 + ceil(n ceil(log2(m S + 1)) / 8)`` with
+    ``"compact"`` (:func:`heuristics.communication.belief_size`).  ``work`` counts *slot
     examinations* as the algorithm performs them: every round every robot examines every
     slot of every service it has -- its own slot gives its current reward, each other slot
     a candidate reward (full slots included when capped: examined, then rejected), so a
@@ -104,18 +118,24 @@ def grape_s(
     >>> import cfopt
     >>> m = cfopt.Mission.from_arrays([[1], [1], [1]], [[2], [1]], [5, 5])
     >>> run = grape_s(m)
+    >>> # 4 rounds x 3 broadcasts of 16 + 4 x 3 bytes
     >>> run.assignment.task.tolist(), run.iterations, run.rounds, run.messages, run.bytes
-    ([1, 0, 0], 3, 4, 24, 672)
+    ([1, 0, 0], 3, 4, 12, 336)
     >>> run.trajectory.tolist()      # (iteration, robot, task, service): robot 2 first
     [[1, 2, 0, 0], [2, 1, 0, 0], [3, 0, 1, 0]]
+    >>> run.communication_cost("unicast", "full")     # 4 x 3 x 2 messages of 28 bytes
+    (24, 672)
     """
     started = time.perf_counter()
     require_mission(mission)
     check_order(order)
+    comm = comm_model(medium, encoding)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)
     out = _core(mission.capabilities, mission.requirements, model, order, bool(capped), rng)
-    messages, nbytes = broadcast_cost(mission.n_robots, out.rounds)
+    n_slots = mission.n_tasks * mission.n_services
+    table = belief_rounds_table(mission.n_robots, n_slots, out.rounds)
+    messages, nbytes = table_cost(table, comm)
     return moves_run(
         "grape-s",
         out.task,
@@ -128,7 +148,8 @@ def grape_s(
         messages=messages,
         bytes=nbytes,
         work=out.work,
-        options=(("order", order), ("capped", bool(capped)), ("reward", reward)),
+        options=(("order", order), ("capped", bool(capped)), ("reward", reward), *comm.options),
+        communication=table,
     )
 
 

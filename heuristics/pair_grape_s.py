@@ -10,7 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, moves_run
+from heuristics._run import Run, check_order, moves_run
+from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.grape_s import SeedLike, _core
 from heuristics.reward import RewardModel, reward_model
 
@@ -23,6 +24,8 @@ def pair_grape_s(
     seed: SeedLike = None,
     order: str = "index",
     reward: str = "paper",
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run Pair-GRAPE-S (the seed's Algorithm 2) on ``mission``.
 
@@ -37,12 +40,18 @@ def pair_grape_s(
     reward : {"paper", "utility"}
         Reward weighting (:mod:`heuristics.reward`); the seed's Lemma 1 and Theorem 1
         are stated for ``"paper"``.
+    medium : {"broadcast", "unicast"}, default "broadcast"
+    encoding : {"full", "compact"}, default "full"
+        The communication model of ``messages`` and ``bytes``, as in
+        :func:`heuristics.grape_s` (:mod:`heuristics.communication`).
 
     Returns
     -------
     Run
         ``algorithm="pair-grape-s"``; ``exchanges`` and ``pairwise_step_ran`` filled in;
-        a pairwise exchange appears in ``trajectory`` as two rows with one iteration.
+        a pairwise exchange appears in ``trajectory`` as two rows with one iteration;
+        ``options`` records ``medium`` and ``encoding``, ``communication`` the counts
+        under every model.
 
     Notes
     -----
@@ -71,6 +80,12 @@ def pair_grape_s(
     task, where Pair-GRAPE-S earns nothing: so the seed's "optimal solutions for all
     problems" does not hold in general.
 
+    Counting.  ``rounds`` = phase-1 rounds + exchanges (+ 1 quiet pass); ``messages``
+    and ``bytes`` are those of ``rounds`` belief rounds exactly as in
+    :func:`heuristics.grape_s` (``rounds n`` broadcasts or ``rounds n (n - 1)`` unicasts
+    of one belief each); the exchange's request and answer are not counted (the seed's
+    §3 model counts the broadcast rounds only).
+
     ``work`` is GRAPE-S's slot examinations plus, in the pairwise step, one unit per
     assigned robot examined as a partner and one per short slot ``a_i`` evaluates.
     Phase 2 costs O(n S) numpy work per unassigned robot per pass.
@@ -86,10 +101,14 @@ def pair_grape_s(
     ([0, 1], [0, 1])
     >>> run.pairwise_step_ran, run.exchanges, run.iterations, run.trajectory.tolist()
     (True, 1, 2, [[1, 1, 0, 0], [2, 0, 0, 0], [2, 1, 1, 1]])
+    >>> # 3 rounds (a move, the quiet round, the exchange) x 2 broadcasts of 16 + 4 x 2
+    >>> run.rounds, run.messages, run.bytes
+    (3, 6, 144)
     """
     started = time.perf_counter()
     require_mission(mission)
     check_order(order)
+    comm = comm_model(medium, encoding)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)
     caps, reqs = mission.capabilities, mission.requirements
@@ -98,7 +117,8 @@ def pair_grape_s(
         caps, reqs, model, order, rng, first.task, first.service, first.iterations
     )
     rounds = first.rounds + second.rounds
-    messages, nbytes = broadcast_cost(mission.n_robots, rounds)
+    table = belief_rounds_table(mission.n_robots, mission.n_tasks * mission.n_services, rounds)
+    messages, nbytes = table_cost(table, comm)
     return moves_run(
         "pair-grape-s",
         second.task,
@@ -113,7 +133,8 @@ def pair_grape_s(
         work=first.work + second.work,
         exchanges=second.exchanges,
         pairwise_step_ran=second.ran,
-        options=(("order", order), ("capped", True), ("reward", reward)),
+        options=(("order", order), ("capped", True), ("reward", reward), *comm.options),
+        communication=table,
     )
 
 

@@ -19,7 +19,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import shortest_path
 
 from cfopt import Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, moves_run
+from heuristics._run import Run, check_order, moves_run
+from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.grape_s import SeedLike, _core
 from heuristics.reward import RewardModel, reward_model
 
@@ -47,6 +48,8 @@ def pair_grape_s_chain(
     seed: SeedLike = None,
     order: str = "index",
     reward: str = "paper",
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run Pair-GRAPE-S with chain exchanges on ``mission``.
 
@@ -61,6 +64,10 @@ def pair_grape_s_chain(
         Robot order of both phases (see :func:`heuristics.grape_s`).
     reward : {"paper", "utility"}
         Reward weighting (:mod:`heuristics.reward`).
+    medium : {"broadcast", "unicast"}, default "broadcast"
+    encoding : {"full", "compact"}, default "full"
+        The communication model of ``messages`` and ``bytes`` (message model below,
+        :mod:`heuristics.communication`).
 
     Returns
     -------
@@ -68,7 +75,8 @@ def pair_grape_s_chain(
         ``algorithm="pair-grape-s-chain"``; ``exchanges`` counts chain exchanges and
         ``pairwise_step_ran`` says whether the chain step was needed.  A chain exchange of
         ``k`` partners is ``k + 1`` rows of ``trajectory`` with one iteration: the
-        unassigned source first, then the partners along the chain.
+        unassigned source first, then the partners along the chain.  ``options`` records
+        ``medium`` and ``encoding``, ``communication`` the counts under every model.
 
     Notes
     -----
@@ -172,9 +180,14 @@ def pair_grape_s_chain(
     broadcast round), and an *acceptance* travels back ``a_k -> ... -> a_1 -> o``
     (``k`` messages of :data:`ACCEPT_BYTES` = 12 bytes); with ``k = 0`` ``o`` moves and
     broadcasts itself.  A pass without an exchange costs one quiet broadcast round, as in
-    Pair-GRAPE-S.  So ``rounds`` = phase-1 rounds + exchanges (+ 1 quiet pass),
-    ``messages = rounds n (n - 1) + 2 sum k`` and ``bytes`` =
-    :func:`heuristics.broadcast_cost` bytes ``+ sum (k (8 + 8 k) + 12 k)``.
+    Pair-GRAPE-S.  So ``rounds`` = phase-1 rounds + exchanges (+ 1 quiet pass).  A belief
+    round costs what it costs in :func:`heuristics.grape_s` under the chosen model
+    (``n`` broadcasts, or ``n (n - 1)`` unicasts, of one belief of
+    :func:`heuristics.communication.belief_size` bytes); requests and acceptances are
+    direct messages, one transmission each under both media, and keep their layout under
+    both encodings.  So ``messages = rounds n + 2 sum k`` (broadcast) or ``rounds n (n -
+    1) + 2 sum k`` (unicast), and ``bytes`` = the belief rounds' bytes ``+ sum (k (8 + 8
+    k) + 12 k)``.
 
     ``work`` is GRAPE-S's slot examinations plus, in phase 2, per search one unit per arc
     of the search graph (building it and the search each touch an arc once), per chain
@@ -189,7 +202,8 @@ def pair_grape_s_chain(
     partners is read off in O(k n) numpy work and its end slot chosen among O(m S)
     keys.  Phase 2 costs O(u (n S log n + k_max n + m S)) with ``k_max <= min(n, m S)``,
     i.e. O(n^2 (S log n + m)) in the worst case; communication adds
-    O(u k_max) unicast messages to Pair-GRAPE-S's O(rounds n^2) broadcasts.
+    O(u k_max) direct messages to Pair-GRAPE-S's O(rounds n) broadcasts (O(rounds n^2)
+    unicasts).
 
     Examples
     --------
@@ -207,21 +221,30 @@ def pair_grape_s_chain(
     (100.0, [0, 1, 2])
     >>> run.exchanges, run.iterations, run.trajectory.tolist()[2:]
     (1, 3, [[3, 0, 0, 0], [3, 1, 0, 1], [3, 2, 0, 2]])
-    >>> # 4 rounds (2 moves, GRAPE-S's quiet round, the exchange) of 3 x 2 beliefs of
-    >>> # 16 + 4 x 3 bytes, plus 2 requests of 8 + 8 x 2 bytes and 2 acceptances of 12
+    >>> # 4 rounds (2 moves, GRAPE-S's quiet round, the exchange) of 3 broadcast beliefs
+    >>> # of 16 + 4 x 3 bytes, plus 2 requests of 8 + 8 x 2 bytes and 2 acceptances of 12
     >>> run.rounds, run.messages, run.bytes
-    (4, 28, 744)
+    (4, 16, 408)
+    >>> run.communication_cost("unicast", "full")   # 4 x 3 x 2 beliefs + the 4 direct
+    (28, 744)
     """
     started = time.perf_counter()
     require_mission(mission)
     check_order(order)
+    comm = comm_model(medium, encoding)
     model = reward_model(mission, reward)
     rng = np.random.default_rng(seed)
     caps, reqs = mission.capabilities, mission.requirements
     first = _core(caps, reqs, model, order, True, rng)
     second = _chain_step(caps, reqs, model, order, rng, first.task, first.service, first.iterations)
     rounds = first.rounds + second.rounds
-    messages, nbytes = broadcast_cost(mission.n_robots, rounds)
+    table = belief_rounds_table(
+        mission.n_robots,
+        mission.n_tasks * mission.n_services,
+        rounds,
+        direct=(second.unicasts, second.unicast_bytes),
+    )
+    messages, nbytes = table_cost(table, comm)
     return moves_run(
         "pair-grape-s-chain",
         second.task,
@@ -231,12 +254,13 @@ def pair_grape_s_chain(
         seed=seed,
         iterations=first.iterations + second.exchanges,
         rounds=rounds,
-        messages=messages + second.unicasts,
-        bytes=nbytes + second.unicast_bytes,
+        messages=messages,
+        bytes=nbytes,
         work=first.work + second.work,
         exchanges=second.exchanges,
         pairwise_step_ran=second.ran,
-        options=(("order", order), ("capped", True), ("reward", reward)),
+        options=(("order", order), ("capped", True), ("reward", reward), *comm.options),
+        communication=table,
     )
 
 

@@ -1,9 +1,35 @@
 """RACHNA_dt: the ascending auction with the dynamic threshold ``eps = 1/n``, the seed's
 second auction baseline.
 
-The original protocol paper is not available; this is the toolkit's reading of the seed's
-short description, with the semantics and every open choice stated in :func:`rachna_dt`'s
-Notes.
+Sources.  RACHNA is the market-based coalition formation system of Vig and Adams (L. Vig,
+J. A. Adams, "Market-based multi-robot coalition formation", Distributed Autonomous Robotic
+Systems 7, 2006; also their "Coalition formation: from software agents to robots", J.
+Intell. Robot. Syst. 50, 2007, and Vig's Vanderbilt dissertation "Multi-robot coalition
+formation", 2006).  Only their abstracts and opening pages could be read here: RACHNA
+allocates robots to tasks with a modified winner-determination algorithm for multi-unit
+combinatorial auctions, in a utility-based framework, for competitive (non-cooperative)
+settings.  The protocol itself is known from the seed's summary (§3.1, paragraphs on RACHNA
+and RACHNA_dt, which cite Vig and Adams 2006 and Diehl and Adams' 2022 study of scalable
+collectives, not available either):
+
+* the auction is ascending: bids rise as it runs;
+* the sellers are service agents, one per service type, each keeping the wages of all the
+  robots having its service (the robots are the goods); the buyers are task agents, which
+  bid for bundles of services (SDA, §3.1, uses the same buyers and sellers);
+* a task agent wins a bundle when its bid is at least the robots' current wages plus one
+  increment ``eps`` per robot; a task never bids more than its utility;
+* RACHNA_dt takes ``eps = 1/n``, so the condition that ``k_j eps`` stay within ``u_j``
+  depends on the mission, not on a fixed parameter, and coalitions of any size up to ``n``
+  can form;
+* its bidding rounds are synchronized and run on the task and service agents (§6), and
+  its computation is O(m n^3 log n u_max) (§3.1): ``u_max / eps = n u_max`` wage levels,
+  in each of which all ``m`` tasks search a bundle -- tasks bidding together, every round.
+
+The seed states no termination rule, no rule between equal bids and no message format;
+cfopt's choices are in :func:`rachna_dt`'s Notes.  ``schedule="simultaneous"`` (the
+default) is the reading these facts support: every task bids on the same prices each round
+and the service agents then settle the bids.  ``schedule="sequential"`` keeps cfopt 0.1's
+earlier reading, in which the tasks act one after another within a round.
 """
 
 from __future__ import annotations
@@ -19,6 +45,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.optimize import linear_sum_assignment
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_flow
 
@@ -31,10 +58,13 @@ from heuristics._auction import (
     check_order,
 )
 from heuristics._run import Run, seed_label
+from heuristics.communication import comm_model, communication_table, table_cost
 
-__all__ = ["MAX_ROUNDS", "rachna_dt"]
+__all__ = ["MAX_ROUNDS", "SCHEDULES", "rachna_dt"]
 
 SeedLike = int | np.random.Generator | None
+#: Bidding schedules of :func:`rachna_dt`: the faithful reading first (the default).
+SCHEDULES = ("simultaneous", "sequential")
 #: Default ``max_rounds`` of :func:`rachna_dt` (the seed's missions need at most a few
 #: times ``10 n``; a bidding war lasts about ``u / eps`` purchases).
 MAX_ROUNDS = 10**5
@@ -51,7 +81,10 @@ def rachna_dt(
     eps: float | Fraction | None = None,
     seed: SeedLike = None,
     order: str = "index",
+    schedule: str = "simultaneous",
     max_rounds: int = MAX_ROUNDS,
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run RACHNA with dynamic threshold (centralized, synchronous rounds) on ``mission``.
 
@@ -64,18 +97,32 @@ def rachna_dt(
     seed : None, int or numpy.random.Generator
         Recorded only: RACHNA_dt makes no random choice (every tie goes to the lowest index).
     order : {"index"}
-        Accepted for the registry's common signature; tasks act in index order.
+        Accepted for the registry's common signature; ties go to the lowest index.
+    schedule : {"simultaneous", "sequential"}, default "simultaneous"
+        How the tasks bid within a round (see Notes): all on the round's opening prices,
+        then the bids are awarded (the faithful reading), or one after another, each on the
+        state the previous ones left (cfopt 0.1's reading).
     max_rounds : int, default MAX_ROUNDS (100000)
         The most rounds the auction may need; a run that needs more raises
         :class:`cfopt.MissionError` (see Notes, Termination).  The trajectory of a run has
         at least ``rounds - 1`` rows, so this also bounds its memory.
 
+    medium : {"broadcast", "unicast"}, default "broadcast"
+        How ``messages`` and ``bytes`` count a service agent's price announcement to the
+        tasks needing its service: one transmission, or one message per task (Notes,
+        Counting; :mod:`heuristics.communication`).
+    encoding : {"full", "compact"}, default "full"
+        Accepted and recorded for the common signature: the encoding is that of beliefs
+        (partitions), and RACHNA_dt sends none, so both give the same counts.
+
     Returns
     -------
     Run
-        ``algorithm="rachna-dt"``; ``iterations`` = rounds with at least one acquisition;
+        ``algorithm="rachna-dt"``; ``iterations`` = rounds with at least one purchase;
         ``trajectory`` one row ``(iteration, robot, task, service)`` per robot that changes
-        hands (``task = service = -1``: released).
+        hands (``task = service = -1``: released); ``options`` records ``eps``,
+        ``schedule``, ``order``, ``medium`` and ``encoding``; ``communication`` the counts
+        under every model.
 
     Raises
     ------
@@ -85,96 +132,134 @@ def rachna_dt(
 
     Notes
     -----
-    The auction.  Wages are whole multiples of ``eps``, kept as integers (units of
-    ``eps``), all 0 at the start; a task's utility ``u[j]`` becomes the integer budget
+    Prices.  Wages are whole multiples of ``eps``, kept as integers (units of ``eps``), all
+    0 at the start; a task's utility ``u[j]`` becomes the integer budget
     ``floor(u[j] / eps)`` (exact, with fractions and Python integers of any size), so every
-    comparison is exact.  A round: the tasks that are not fully staffed act one after
-    another in index order, each on the state left by the previous ones (choice:
-    sequential, not simultaneous, so there are no conflicting bids to resolve).  A task
-    prices every robot at ``wage + eps`` -- a task that is not fully staffed holds no robot
-    (it released them all when it lost one), so "robots a task already holds are priced at
-    their wage" never applies -- and finds its cheapest complete bundle among *all* robots
-    having the services (free or held); if the bundle costs ``<= u[j]`` it takes all of it.
-    Every robot it acquires, free or taken from another task, now earns ``wage + eps``
-    (choice: the price the bid was computed with; the seed names the taken robots, free
-    robots are priced the same way).  A task that loses a robot is no longer staffed and
-    releases its other robots, whose wages are kept; if its index is after the acting task
-    it acts again in the same round, otherwise in the next (so a task acts at most once per
-    round).  The auction stops after a round in which no task bid (that quiet round is
-    counted).
+    comparison is exact.  A task bidding prices every robot at ``wage + eps``: a task that
+    is not fully staffed holds no robot (it released them all when it lost one), so it must
+    outbid the current employer of any robot it wants, and free robots are priced the same
+    way (choice; the seed's award rule adds one ``eps`` per robot of the bundle).  It finds
+    its cheapest complete bundle among *all* robots having the services (free or held); if
+    the bundle costs ``<= u[j]`` it bids for all of it.  Tie-break (choice): among bundles
+    of equal cost, fewest robots held by other tasks, then the least sum of robot indices
+    (see :mod:`heuristics._auction`).  Every robot a task buys then earns ``wage + eps``.
+    A task that loses a robot is no longer staffed and releases its other robots, whose
+    wages are kept.  A task that cannot afford its cheapest bundle, or has none, never bids
+    again: wages never fall, so its cheapest cost never falls; the engine skips it (its
+    work is still counted).  A task that can never be staffed (it needs more robots of a
+    service than have it, or more robots in all than have one of its services) is pruned
+    before the first round: never searched, and counted as the literal auction counts it
+    (it searches, finds no bundle and gives up in round 1).  The auction stops after a
+    round in which no task bid (that quiet round is counted).
 
-    Tie-break (choice): among bundles of equal cost, fewest robots taken from other tasks,
-    then the least sum of robot indices (see :mod:`heuristics._auction`).  A task that
-    cannot afford its cheapest bundle, or has none, never bids again: wages never fall, so
-    its cheapest cost never falls; the engine skips it (its work is still counted).  A task
-    that can never be staffed (it needs more robots of a service than have it, or more
-    robots in all than have one of its services) is pruned before the first round: it is
-    never searched, and counted exactly as the literal auction counts it (it acts, finds
-    no bundle and gives up in round 1).
+    Simultaneous schedule (the default).  A round: every task that is neither staffed nor
+    given up searches its cheapest bundle on the wages and holdings of the round's opening
+    and bids if it can afford it -- all bids are made on the same prices.  The service
+    agents then settle: the bids are taken in task-index order, and a bid wins when none of
+    its robots went to an earlier bid of the round; a bundle is all or nothing (choice: two
+    bids for one robot both offer its ``wage + eps``, a tie, broken like every tie by the
+    lowest index).  So each robot is sold at most once a round, its wage rises by at most
+    one unit a round, and the first bid always wins.  A bid that lost is made again, on the
+    new prices, next round; a task robbed of a robot bids next round too.  Which slot a
+    robot fills in a bundle is fixed by the robot set alone (it changes no price).
 
-    Termination.  Every acquisition raises at least one wage by one unit and no wage
-    exceeds ``floor(u_max / eps)`` units (a robot is bought at ``wage + 1 <= budget``), so
-    ``rounds <= n floor(u_max / eps) + 1``; with the default ``eps = 1/n`` and integer
-    utilities that is ``n^2 u_max + 1``.  The rounds really do grow with ``u / eps`` when
-    tasks compete for too few robots (a bidding war ends only when a budget runs out), and
-    every round but the last adds trajectory rows, so the engine cannot skip them; it
+    Sequential schedule.  A round: the tasks that are not fully staffed act one after
+    another in index order, each on the state left by the previous ones (no conflicting
+    bids to settle); a task acting takes its whole bundle at once.  A task that loses a
+    robot acts again in the same round if its index is after the acting task, otherwise
+    in the next (so a task acts at most once per round).  A robot may change hands several
+    times in one round.
 
-    * adds repeating rounds at once: when the state at the end of a round (holders,
-      services, given-up tasks) equals that of the last checkpoint of Brent's cycle
-      detection but for the wages, raised by ``delta``, and ``delta`` is one constant
-      ``c_j`` over all robots having a service of each task ``j`` that bought in between,
-      then every bundle search of the next period sees its cost matrix shifted by a
-      constant, makes the same choice, and the period repeats -- for as long as every
-      purchase price ``p`` of the period stays within its budget, ``L = min (budget_j - p)
-      // (k_j c_j)`` more times (and wages stay below ``2**62`` units).  The ``L`` periods
-      are added in one step: wages, counts, and the trajectory rows with shifted
-      iterations;
+    Termination.  Every purchase raises a wage by one unit, every bidding round has one,
+    and no wage exceeds ``floor(u_max / eps)`` units (a robot is bought at ``wage + 1 <=
+    budget``), so ``rounds <= n floor(u_max / eps) + 1``; with the default ``eps = 1/n``
+    and integer utilities that is ``n^2 u_max + 1``.  Rounds grow with ``u / eps`` when
+    tasks compete for too few robots (a bidding war ends only when a budget runs out: two
+    tasks alone on one robot take about ``2 min(budget)`` simultaneous rounds, half as many
+    sequential ones), and every round but the last adds trajectory rows, so the engine
+    cannot skip them; with Brent's cycle detection on the state at the end of a round
+    (holders, services, given-up tasks) it
+
+    * adds repeating rounds at once when that state equals the last checkpoint's but for
+      the wages, raised by ``delta``.  Sequential: when ``delta`` is one constant ``c_j``
+      over all robots having a service of each task ``j`` that bought in between, every
+      bundle search of the next period sees its cost matrix shifted by a constant and makes
+      the same choice, for as long as every purchase price ``p`` stays within its budget:
+      ``L = min (budget_j - p) // (k_j c_j)`` more periods.  Simultaneous: period ``l``
+      (the period just run is period 0) repeats period 0 exactly if every bid of its rounds
+      is again its task's cheapest bundle, and affordable, on that round's opening wages
+      ``w + l delta`` -- then the same bids meet the same holdings and win or lose alike.
+      For a bid ``B`` and any bundle ``B'`` the cost difference changes linearly in ``l``
+      (``delta >= 0``), so the ``l`` at which ``B`` stays cheapest form an interval from 0;
+      so do those at which its price stays within budget.  The engine takes the bound the
+      budgets allow, replays the period there with real bundle searches and, if some bid
+      changes, bisects.  (Bundles tied in cost, flags and index sum could in principle
+      break the interval; their keys are then equal and the choice among them is the
+      matching's.)  The periods are added in one step: wages, counts, and the trajectory
+      rows with shifted iterations;
     * proves early that more than ``max_rounds`` rounds are needed, at every checkpoint
       from round 16 on (rounds 16, 32, 64, ... and after each jump): if the tasks not
       given up cannot all be staffed at once (a maximum flow from the robots to the
       services they demand), the auction cannot end before one of them gives up, and a
       task ``j`` that holds or can buy a bundle ``B`` at price ``p_j`` units cannot give
-      up within ``(budget_j - p_j) // g_j`` rounds, where ``g_j`` sums, over ``B``, the
-      tasks that can buy each robot (a task acts at most once per round, so this bounds
-      the wage rise of ``B`` per round);
+      up within ``(budget_j - p_j) // g_j`` rounds, where ``g_j`` bounds the rise of
+      ``B``'s price per round: ``k_j`` simultaneous (each robot is sold at most once a
+      round), the sum over ``B`` of the tasks that can buy each robot sequential;
     * raises :class:`cfopt.MissionError` (``eps: ...``, naming an ``eps`` with ``n
       floor(u_max / eps) + 1 <= max_rounds``) when such a proof, a jump or the round
       count passes ``max_rounds``.  A war that does not repeat and cannot be proven long
-      (budgets of about ``max_rounds`` times the bound ``g_j``) is run round by round up
-      to ``max_rounds``.
+      is run round by round up to ``max_rounds``.
 
-    Counting.  Messages (header 8 bytes, entries 12 bytes): an acting task that bids sends
-    one message to each service agent of its needed services (``r_js`` entries) and gets an
-    answer from each (header only); after an acquisition every service agent with a robot
-    whose wage or holder changed (the bundle and the robots the losers released) tells every
-    other task needing its service (one entry per changed robot); a task that lost a robot
-    sends a release to the service agent of each service its released robots performed (one
-    entry per robot).  A task that does not bid sends nothing.  ``work`` counts cost-matrix
-    entries of the bundle selections the literal auction performs: each acting task, each
-    time it acts, matches ``(robots having one of its services) x k_j`` entries.
+    Counting.  Messages go between task agents and service agents (header 8 bytes, entries
+    12 bytes).  A task that bids sends one message to each service agent of its needed
+    services (``r_js`` entries) and gets an answer from each (header only), whether it wins
+    or not (simultaneous).  After purchases, every service agent with a robot whose wage or
+    holder changed (the robots bought and the robots their losers released) tells every
+    task needing its service, one entry per changed robot: once per round, to all those
+    tasks (simultaneous), or after each purchase, to all but the buyer (sequential).  A
+    task that lost a robot sends a release to the service agent of each service its
+    released robots performed (one entry per robot).  A task that does not bid sends
+    nothing.  These are ``medium="unicast"``'s counts; under ``"broadcast"`` (the default)
+    a price announcement is one transmission per service agent that has receivers, and
+    every other message (bids, answers, releases: addressed to one agent) counts the same.
+    ``work`` counts cost-matrix entries of the bundle searches the literal
+    auction performs: every task not staffed (given-up and pruned ones included) searches
+    once each round (sequential: each time it acts), ``(robots having one of its services)
+    x k_j`` entries.
 
-    Complexity: O(rounds simulated x acting tasks x M) where ``M`` is one matching on at
-    most ``k_j |S_j|`` candidates, plus O(n + m) per round for the cycle detection and
-    O(m M + n S) at each of the O(log rounds) checkpoints; the rounds simulated are at most
-    ``max_rounds`` and, on the seed's missions, a few (see
-    ``benchmarks/bench_auctions.py``).
+    Complexity.  Simultaneous: per round simulated, one O(n log n) sort of the robots by
+    (wage, flag, index), then per bidding task O(n) to rank its pool and O(k_j |S_j|) to
+    take the cheapest robots -- exact when they can fill its slots or when each service's
+    cheapest robots are disjoint, otherwise one matching on at most ``k_j |S_j|``
+    candidates; each jump costs O(log(u_max / eps)) replays of a period.  Sequential: per
+    round, one matching per acting task.  Both: O(n + m) per round for the cycle detection
+    and O(m M + n S) at each of the O(log rounds) checkpoints.  The rounds simulated are at
+    most ``max_rounds``; on the seed's missions, sequential runs end in 2-3 rounds and
+    simultaneous ones take about one round per conflict of the first bids (up to ``m + 1``
+    rounds: every task first wants the same cheapest robots); see
+    ``benchmarks/bench_auctions.py``.
 
     Examples
     --------
     >>> import cfopt
     >>> m = cfopt.Mission.from_arrays([[1, 1], [1, 0]], [[1, 0], [0, 1]], [5, 5])
-    >>> run = rachna_dt(m)          # task 0 takes robot 0; task 1 outbids it (only robot 0
-    >>> run.trajectory.tolist()     # has service 1); task 0 re-forms with robot 1
-    [[1, 0, 0, 0], [1, 0, 1, 1], [2, 1, 0, 0]]
+    >>> run = rachna_dt(m)   # both tasks bid for robot 0 in round 1, task 0 wins the tie;
+    >>> run.trajectory.tolist()  # task 1 (only robot 0 has service 1) outbids it in round 2
+    [[1, 0, 0, 0], [2, 0, 1, 1], [3, 1, 0, 0]]
     >>> run.assignment.task.tolist(), run.iterations, run.rounds
-    ([1, 0], 2, 3)
+    ([1, 0], 3, 4)
+    >>> seq = rachna_dt(m, schedule="sequential")  # task 1 outbids task 0 in round 1
+    >>> seq.trajectory.tolist(), seq.rounds
+    ([[1, 0, 0, 0], [1, 0, 1, 1], [2, 1, 0, 0]], 3)
 
-    Two tasks bidding for one robot: a war of about ``u / eps`` rounds, jumped over.
+    Two tasks bidding for one robot: a war of about ``2 u / eps`` rounds, jumped over.
 
     >>> war = cfopt.Mission.from_arrays([[1]], [[1], [1]], [1e4, 2e4])
     >>> run = rachna_dt(war, eps=1)
     >>> run.rounds, len(run.trajectory), run.assignment.task.tolist()
-    (5001, 10000, [1])
+    (10001, 10000, [1])
+    >>> rachna_dt(war, eps=1, schedule="sequential").rounds
+    5001
     >>> rachna_dt(war, eps=1, max_rounds=1000)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -185,26 +270,38 @@ def rachna_dt(
     n = mission.n_robots
     eps_q = Fraction(1, max(n, 1)) if eps is None else check_eps(eps)
     check_order(order)
+    if schedule not in SCHEDULES:
+        raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
     if (
         isinstance(max_rounds, bool)
         or not isinstance(max_rounds, numbers.Integral)
         or max_rounds < 1
     ):
         raise MissionError(f"max_rounds: must be a whole number >= 1, got {max_rounds!r}")
+    comm = comm_model(medium, encoding)
     np.random.default_rng(seed)  # validates the seed; RACHNA_dt draws nothing
-    out = _core(mission, eps_q, int(max_rounds))
+    out = _core(mission, eps_q, int(max_rounds), schedule=schedule)
+    table = communication_table(
+        lambda c: (
+            (out.messages, out.bytes)
+            if c.medium == "unicast"
+            else (out.cast_messages, out.cast_bytes)
+        )
+    )
+    messages, nbytes = table_cost(table, comm)
     return Run(
         algorithm="rachna-dt",
         assignment=Assignment(task=out.task, service=out.service),
         iterations=out.iterations,
         rounds=out.rounds,
-        messages=out.messages,
-        bytes=out.bytes,
+        messages=messages,
+        bytes=nbytes,
         work=out.work,
         seconds=time.perf_counter() - started,
         seed=seed_label(seed),
         trajectory=out.moves.array(),
-        options=(("eps", str(eps_q)), ("order", order)),
+        options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order), *comm.options),
+        communication=table,
     )
 
 
@@ -252,13 +349,41 @@ class _Outcome:
     service: npt.NDArray[np.int64]
     iterations: int = 0
     rounds: int = 0
-    messages: int = 0
+    messages: int = 0  # medium="unicast": one message per receiver
     bytes: int = 0
     work: int = 0
     moves: _Moves = field(default_factory=_Moves)
+    cast_messages: int = 0  # medium="broadcast": one transmission per announcement
+    cast_bytes: int = 0
 
-    def counts(self) -> tuple[int, int, int, int, int]:
-        return self.iterations, self.messages, self.bytes, self.work, self.moves.count
+    def counts(self) -> tuple[int, int, int, int, int, int, int]:
+        return (
+            self.iterations,
+            self.messages,
+            self.bytes,
+            self.work,
+            self.moves.count,
+            self.cast_messages,
+            self.cast_bytes,
+        )
+
+    def direct(self, messages: int, nbytes: int) -> None:
+        """Messages to one agent: the same under both media."""
+        self.messages += messages
+        self.bytes += nbytes
+        self.cast_messages += messages
+        self.cast_bytes += nbytes
+
+    def announce(self, receivers: npt.NDArray[np.int64], entries: npt.NDArray[np.int64]) -> None:
+        """Each service agent ``s`` with ``entries[s] > 0`` changed robots tells its
+        ``receivers[s]`` tasks: that many messages unicast, one transmission broadcast."""
+        size = HEADER_BYTES + ENTRY_BYTES * entries
+        has = entries > 0
+        self.messages += int(receivers[has].sum())
+        self.bytes += int((receivers * size)[has].sum())
+        sent = has & (receivers > 0)
+        self.cast_messages += int(sent.sum())
+        self.cast_bytes += int(size[sent].sum())
 
 
 @dataclass
@@ -273,12 +398,25 @@ class _Checkpoint:
     counts: tuple[int, int, int, int, int]
 
 
-def _core(mission: Mission, eps: Fraction, max_rounds: int, jump: bool = True) -> _Outcome:
-    """The auction rounds; see :func:`rachna_dt` Notes for the method.
+def _core(
+    mission: Mission,
+    eps: Fraction,
+    max_rounds: int,
+    jump: bool = True,
+    schedule: str = "simultaneous",
+) -> _Outcome:
+    """The auction rounds of ``schedule``; see :func:`rachna_dt` Notes for the method.
 
     ``jump=False`` turns the jump over repeating rounds off (the tests compare both).
     Complexity as :func:`rachna_dt`.
     """
+    if schedule == "simultaneous":
+        return _simultaneous(mission, eps, max_rounds, jump)
+    return _sequential(mission, eps, max_rounds, jump)
+
+
+def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
+    """The sequential reading (tasks act one after another); see :func:`rachna_dt`."""
     caps, reqs = mission.capabilities, mission.requirements
     n = caps.shape[0]
     m = reqs.shape[0]
@@ -306,7 +444,9 @@ def _core(mission: Mission, eps: Fraction, max_rounds: int, jump: bool = True) -
 
     def checkpoint() -> _Checkpoint:
         if out.rounds >= _PROVE_FROM:
-            rest = _rounds_left(finder, caps64, reqs, budget, wage, members, staffed, dead)
+            rest = _rounds_left(
+                finder, caps64, reqs, budget, wage, members, staffed, dead, once=False
+            )
             if rest is not None and out.rounds + rest > max_rounds:
                 raise too_many()
         return _Checkpoint(
@@ -353,9 +493,8 @@ def _core(mission: Mission, eps: Fraction, max_rounds: int, jump: bool = True) -
                 rel = rel[~np.isin(rel, robots)]
                 # release message: one per service the released robots performed
                 if rel.size:
-                    svc = out.service[rel]
-                    out.messages += int(np.unique(svc).size)
-                    out.bytes += int(np.unique(svc).size) * HEADER_BYTES + ENTRY_BYTES * rel.size
+                    performed = int(np.unique(out.service[rel]).size)
+                    out.direct(performed, performed * HEADER_BYTES + ENTRY_BYTES * rel.size)
                     holder[rel] = -1
                     out.service[rel] = -1
                     held[rel] = 0
@@ -379,15 +518,10 @@ def _core(mission: Mission, eps: Fraction, max_rounds: int, jump: bool = True) -
             out.moves.add(_rows(it, robots[by_robot], j, b.services[by_robot]))
             # bid, answers
             counts = finder.counts[j]
-            out.messages += 2 * len(counts)
-            out.bytes += 2 * len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts)
+            out.direct(2 * len(counts), 2 * len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts))
             # notices about changed robots to every other task needing the service
             changed = np.concatenate([robots, *released_parts]) if released_parts else robots
-            per_service = caps64[changed].sum(axis=0)
-            has = per_service > 0
-            to = m_s - need64[j]
-            out.messages += int(to[has].sum())
-            out.bytes += int((to * (HEADER_BYTES + ENTRY_BYTES * per_service))[has].sum())
+            out.announce(m_s - need64[j], caps64[changed].sum(axis=0))
         if not acted:
             break
         # every unstaffed live task acts next round (those robbed late were queued above)
@@ -410,6 +544,372 @@ def _core(mission: Mission, eps: Fraction, max_rounds: int, jump: bool = True) -
         check = checkpoint()
         log = []
     return out
+
+
+@dataclass(frozen=True)
+class _Bid:
+    """One task's bid in a simultaneous round: its bundle (robots ascending, each with the
+    service it would perform) and its price in units of eps."""
+
+    task: int
+    robots: npt.NDArray[np.int64]
+    services: npt.NDArray[np.int64]
+    price: int
+
+
+def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
+    """The simultaneous reading (every task bids on the round's opening wages, then the
+    bids are awarded); see :func:`rachna_dt` Notes for the method and the proofs."""
+    caps, reqs = mission.capabilities, mission.requirements
+    n = caps.shape[0]
+    m = reqs.shape[0]
+    out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
+    finder = BundleFinder(caps, reqs)
+    k = finder.k
+    utilities = [Fraction(float(x)) for x in mission.utilities.tolist()]
+    budget = [math.floor(x / eps) for x in utilities]
+    need64 = (reqs > 0).astype(np.int64)
+    caps64 = caps.astype(np.int64)
+    m_s = need64.sum(axis=0)  # tasks needing each service
+    match_work = [int(r) * kj for r, kj in zip(finder.reach.tolist(), k, strict=True)]
+    agents = [len(c) for c in finder.counts]  # service agents a task bids to
+    bid_bytes = [2 * len(c) * HEADER_BYTES + ENTRY_BYTES * sum(c) for c in finder.counts]
+    wage = np.zeros(n, dtype=np.int64)  # units of eps
+    held = np.zeros(n, dtype=np.int64)  # 1 when some task holds the robot
+    holder, service = out.task, out.service  # shared: the assignment is the holder map
+    members: list[npt.NDArray[np.int64]] = [np.zeros(0, dtype=np.int64) for _ in range(m)]
+    staffed = np.zeros(m, dtype=bool)
+    dead = ~finder.possible  # pruned: never staffable, never searched
+    dead_work = sum(match_work[j] for j in np.flatnonzero(dead).tolist())
+    market = _Market(finder)
+    taken = np.zeros(n, dtype=bool)  # scratch: robots awarded in the current round
+
+    def too_many() -> MissionError:
+        return _too_many_rounds(max_rounds, n, max(utilities, default=Fraction(0)), eps)
+
+    def checkpoint() -> _Checkpoint:
+        if out.rounds >= _PROVE_FROM:
+            rest = _rounds_left(
+                finder, caps64, reqs, budget, wage, members, staffed, dead, once=True
+            )
+            if rest is not None and out.rounds + rest > max_rounds:
+                raise too_many()
+        return _Checkpoint(
+            out.rounds, holder.copy(), service.copy(), dead.copy(), wage.copy(), out.counts()
+        )
+
+    # Brent's cycle detection on the state at the end of a round; ``log`` holds the bids
+    # of every round since the checkpoint.
+    check = checkpoint()
+    span = 1
+    log: list[list[_Bid]] = []
+    while True:
+        if out.rounds >= max_rounds:
+            raise too_many()
+        out.rounds += 1
+        out.work += dead_work
+        bids: list[_Bid] = []
+        book = market.book(wage, held)
+        for j in np.flatnonzero(~staffed & ~dead).tolist():
+            out.work += match_work[j]
+            found = book.best(j)
+            if found is None or found[2] > budget[j]:
+                dead[j] = True  # wages never fall: it can never afford a bundle again
+                dead_work += match_work[j]
+                continue
+            bids.append(_Bid(j, *found))
+        if not bids:
+            break
+        out.iterations += 1
+        it = out.iterations
+        # winner determination: in index order, a bid wins when none of its robots was
+        # awarded to an earlier bid of this round (each robot is sold at most once a round)
+        winners: list[_Bid] = []
+        for bid in bids:
+            out.direct(2 * agents[bid.task], bid_bytes[bid.task])  # bid and answer, per agent
+            if not taken[bid.robots].any():
+                taken[bid.robots] = True
+                winners.append(bid)
+        won = np.concatenate([bid.robots for bid in winners])
+        taken[won] = False
+        before = holder[won]
+        losers = np.unique(before[before >= 0]).tolist()
+        for bid in winners:
+            wage[bid.robots] += 1
+            held[bid.robots] = 1
+            holder[bid.robots] = bid.task
+            service[bid.robots] = bid.services
+            members[bid.task] = bid.robots
+            staffed[bid.task] = True
+            out.moves.add(_rows(it, bid.robots, bid.task, bid.services))
+        changed = [won]
+        for loser in losers:
+            mem = members[loser]
+            rel = np.sort(mem[holder[mem] == loser])
+            if rel.size:  # release: one message per service the released robots performed
+                performed = int(np.unique(service[rel]).size)
+                out.direct(performed, performed * HEADER_BYTES + ENTRY_BYTES * rel.size)
+                holder[rel] = -1
+                service[rel] = -1
+                held[rel] = 0
+                out.moves.add(_rows(it, rel, -1, -1))
+                changed.append(rel)
+            members[loser] = np.zeros(0, dtype=np.int64)
+            staffed[loser] = False
+        # price announcements: every service agent with a changed robot tells every task
+        # needing its service, one entry per changed robot
+        out.announce(m_s, caps64[np.concatenate(changed)].sum(axis=0))
+        if jump:
+            log.append(bids)
+        if (
+            jump
+            and np.array_equal(holder, check.holder)
+            and np.array_equal(service, check.service)
+            and np.array_equal(dead, check.dead)
+        ):
+            if _leap(out, check, wage, log, market, budget, max_rounds, too_many):
+                span = 1
+            else:
+                continue
+        elif out.rounds - check.rounds >= span:
+            span *= 2
+        else:
+            continue
+        check = checkpoint()
+        log = []
+    return out
+
+
+def _services(
+    finder: BundleFinder, j: int, robots: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64] | None:
+    """The service each robot of ``robots`` (ascending) performs in task ``j``'s bundle,
+    fixed by the robot set alone; ``None`` when the robots cannot fill ``j``'s slots.
+
+    Which slot a robot fills changes no price, so any valid filling serves; this one
+    depends on nothing but ``robots`` and the mission, so a repeated bundle repeats its
+    services exactly (the jump copies trajectory rows).  Robots having every service the
+    task needs fill its slots in order; a robot having exactly one performs it; otherwise
+    a matching of robots to slots (scipy's deterministic ``linear_sum_assignment`` on a
+    0/1 matrix).  O(k |S_j|), or O(k^3) for the matching.
+    """
+    need = finder.need[j]
+    allowed = finder.caps[robots][:, need]
+    if allowed.all():
+        return finder.slot_service[j].copy()
+    if (allowed.sum(axis=1) == 1).all():
+        choice = np.argmax(allowed, axis=1)
+        if np.bincount(choice, minlength=need.size).tolist() != finder.counts[j]:
+            return None
+        return need[choice]
+    slots = finder.slot_service[j]
+    fits = finder.caps[robots][:, slots]
+    cost = np.where(fits, 0.0, 1.0)
+    rows, cols = linear_sum_assignment(cost)
+    if cost[rows, cols].any():
+        return None
+    out = np.empty(robots.size, dtype=np.int64)
+    out[rows] = slots[cols]
+    return out
+
+
+class _Market:
+    """The fixed parts of the simultaneous engine's bundle search (see :class:`_Book`).
+
+    Robot keys ``wage K_w + held K_f + index`` with ``K_f = n^2`` and ``K_w = (n + 1) K_f``
+    order bundles exactly as :mod:`heuristics._auction` does (sum of wages, then of flags,
+    then of indices: a bundle has at most ``n`` robots) while they fit in int64.
+    """
+
+    def __init__(self, finder: BundleFinder) -> None:
+        self.finder = finder
+        n = finder.n
+        self.k_f = max(n * n, 1)
+        self.k_w = (n + 1) * self.k_f
+        self.limit = (2**62 - self.k_w) // self.k_w  # largest wage the int64 keys allow
+        self.caps = finder.caps
+        need_sets: dict[tuple[int, ...], int] = {}
+        self.pool_of = []  # task -> index of its need set
+        for j in range(len(finder.k)):
+            key = tuple(finder.need[j].tolist())
+            self.pool_of.append(need_sets.setdefault(key, len(need_sets)))
+        self.pool_masks = [
+            finder.caps[:, list(key)].any(axis=1) if key else np.zeros(n, dtype=bool)
+            for key in need_sets
+        ]
+
+    def book(self, wage: npt.NDArray[np.int64], held: npt.NDArray[np.int64]) -> _Book:
+        """The price book of one round: the bundle search on these wages and flags."""
+        return _Book(self, wage, held)
+
+
+class _Book:
+    """Task ``j``'s cheapest bundle on one round's wages and flags (:meth:`best`).
+
+    Exact shortcuts of :meth:`BundleFinder.cheapest`, on one sort of the robots per round:
+    the ``k_j`` robots of least key having a service ``j`` needs bound every bundle from
+    below, so they are the optimal bundle when they can fill its slots; so are the ``r_js``
+    robots of least key having each service ``s`` when these sets are disjoint.  Keys are
+    distinct, so both are the unique optimum, the one the matching finds.  Otherwise (and
+    for wages too large for the keys) the matching of :class:`BundleFinder` decides.
+    """
+
+    def __init__(
+        self, market: _Market, wage: npt.NDArray[np.int64], held: npt.NDArray[np.int64]
+    ) -> None:
+        self.market, self.wage, self.held = market, wage, held
+        self.fast = int(wage.max(initial=0)) <= market.limit
+        if self.fast:
+            n = wage.size
+            key = wage * market.k_w + held * market.k_f + np.arange(n, dtype=np.int64)
+            self.order = np.argsort(key)
+        self._pools: dict[int, npt.NDArray[np.int64]] = {}
+        self._services: dict[int, npt.NDArray[np.int64]] = {}
+
+    def best(self, j: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int] | None:
+        """``(robots ascending, their services, price in units)`` of task ``j``'s cheapest
+        bundle, or ``None`` when it has none.  O(n) for a pool not yet sorted this round,
+        then O(k_j |S_j|) or a matching."""
+        market = self.market
+        finder = market.finder
+        if not finder.possible[j]:
+            return None
+        k = finder.k[j]
+        if self.fast:
+            p = market.pool_of[j]
+            pool = self._pools.get(p)
+            if pool is None:
+                pool = self.order[market.pool_masks[p][self.order]]
+                self._pools[p] = pool
+            if pool.size < k:
+                return None
+            robots = np.sort(pool[:k])
+            services = _services(finder, j, robots)
+            if services is None:
+                parts = []
+                for s, r in zip(finder.need[j].tolist(), finder.counts[j], strict=True):
+                    ranked = self._services.get(s)
+                    if ranked is None:
+                        ranked = self.order[market.caps[self.order, s]]
+                        self._services[s] = ranked
+                    parts.append(ranked[:r])
+                robots = np.unique(np.concatenate(parts))
+                if robots.size == k:  # disjoint: each service's cheapest robots
+                    services = _services(finder, j, robots)
+            if services is not None:
+                return robots, services, int(self.wage[robots].sum()) + k
+        b = finder.cheapest(j, finder.robots_with, self.wage, self.held)
+        if b is None:
+            return None
+        robots = np.sort(b.robots)
+        services = _services(finder, j, robots)
+        assert services is not None
+        return robots, services, int(b.weight) + k
+
+
+def _leap(
+    out: _Outcome,
+    check: _Checkpoint,
+    wage: npt.NDArray[np.int64],
+    log: list[list[_Bid]],
+    market: _Market,
+    budget: list[int],
+    max_rounds: int,
+    too_many: Callable[[], MissionError],
+) -> bool:
+    """Add the simultaneous rounds ``check.rounds + 1 .. out.rounds`` again while they
+    provably repeat; returns whether it added any.
+
+    Called when the state now equals the checkpoint's but for the wages, ``wage =
+    check.wage + delta``.  Period ``l`` (the one just run is period 0) repeats period 0
+    exactly when, on its opening wages ``w + l delta`` of each round, every bid of the
+    round is again its task's cheapest bundle and affordable; the set of such ``l`` is an
+    interval from 0 (see :func:`rachna_dt` Notes, Termination), so the largest is found by
+    checking the bound the budgets allow, then bisecting, each check replaying the period
+    with real bundle searches.  Raises :class:`cfopt.MissionError` when the repetitions
+    alone pass ``max_rounds``.  O(log(u_max / eps) x the period's bundle searches + the
+    trajectory rows added).
+    """
+    length = out.rounds - check.rounds
+    delta = wage - check.wage
+    top = int(delta.max())
+    if top <= 0:
+        return False
+    hi = (_WAGE_CAP - int(wage.max())) // top
+    hi = min(hi, (max_rounds - out.rounds - 1) // length + 1)  # passing it proves too many
+    for bids in log:
+        for bid in bids:
+            rise = int(delta[bid.robots].sum())
+            if rise > 0:
+                hi = min(hi, (budget[bid.task] - bid.price) // rise)
+    if hi <= 0:
+        return False
+    rows = out.moves.since(check.counts[4])
+    first = check.counts[0] + 1  # the iteration of the period's first round
+    cuts = np.searchsorted(rows[:, 0], np.arange(first, first + length + 1))
+
+    def repeats(periods: int) -> bool:
+        w = check.wage + periods * delta
+        flags = (check.holder >= 0).astype(np.int64)
+        for r, bids in enumerate(log):
+            book = market.book(w, flags)
+            for bid in bids:
+                found = book.best(bid.task)
+                if found is None or found[2] > budget[bid.task]:
+                    return False
+                if not np.array_equal(found[0], bid.robots):
+                    return False
+            part = rows[cuts[r] : cuts[r + 1]]
+            bought = part[part[:, 2] >= 0, 1]
+            w[bought] += 1
+            flags[bought] = 1
+            flags[part[part[:, 2] < 0, 1]] = 0
+        return True
+
+    if repeats(hi):
+        periods = hi
+    else:
+        good, bad = 0, hi
+        while bad - good > 1:
+            mid = (good + bad) // 2
+            if repeats(mid):
+                good = mid
+            else:
+                bad = mid
+        periods = good
+    if periods <= 0:
+        return False
+    if out.rounds + periods * length + 1 > max_rounds:  # at least one round follows
+        raise too_many()
+    _add_periods(out, check, wage, delta, periods, length)
+    return True
+
+
+def _add_periods(
+    out: _Outcome,
+    check: _Checkpoint,
+    wage: npt.NDArray[np.int64],
+    delta: npt.NDArray[np.int64],
+    periods: int,
+    length: int,
+) -> None:
+    """Repeat the rounds since ``check`` ``periods`` more times: wages, counts, and the
+    trajectory rows with shifted iterations.  O(n + the rows added)."""
+    iterations, messages, nbytes, work, rows, cast_messages, cast_bytes = check.counts
+    per = out.iterations - iterations
+    period = out.moves.since(rows)
+    if period.size:
+        copies = np.tile(period, (periods, 1))
+        copies[:, 0] += np.repeat(np.arange(1, periods + 1, dtype=np.int64) * per, len(period))
+        out.moves.add(copies)
+    wage += periods * delta
+    out.rounds += periods * length
+    out.iterations += periods * per
+    out.messages += periods * (out.messages - messages)
+    out.bytes += periods * (out.bytes - nbytes)
+    out.work += periods * (out.work - work)
+    out.cast_messages += periods * (out.cast_messages - cast_messages)
+    out.cast_bytes += periods * (out.cast_bytes - cast_bytes)
 
 
 def _rows(it: int, robots: npt.NDArray[np.int64], task: int, services: Any) -> npt.NDArray:
@@ -456,19 +956,7 @@ def _jump(
     length = out.rounds - check.rounds
     if out.rounds + periods * length + 1 > max_rounds:  # at least one round follows
         raise too_many()
-    iterations, messages, nbytes, work, rows = check.counts
-    per = out.iterations - iterations
-    period = out.moves.since(rows)
-    if period.size:
-        copies = np.tile(period, (periods, 1))
-        copies[:, 0] += np.repeat(np.arange(1, periods + 1, dtype=np.int64) * per, len(period))
-        out.moves.add(copies)
-    wage += periods * delta
-    out.rounds += periods * length
-    out.iterations += periods * per
-    out.messages += periods * (out.messages - messages)
-    out.bytes += periods * (out.bytes - nbytes)
-    out.work += periods * (out.work - work)
+    _add_periods(out, check, wage, delta, periods, length)
     return True
 
 
@@ -481,13 +969,17 @@ def _rounds_left(
     members: list[npt.NDArray[np.int64]],
     staffed: npt.NDArray[np.bool_],
     dead: npt.NDArray[np.bool_],
+    once: bool,
 ) -> int | None:
     """A proven lower bound on the rounds still to come, or ``None`` (no bound found).
 
     See :func:`rachna_dt` Notes (Termination): if the tasks not given up cannot all be
     staffed at once, the auction ends only after one of them gives up, and task ``j``
     cannot give up while the price of a bundle it holds or can buy stays within its budget.
-    O(n S + K S) for the flow, plus one bundle search per unstaffed task when it fails.
+    ``once``: a robot is sold at most once a round (the simultaneous schedule), so its
+    wage rises by at most one unit a round; otherwise by at most one unit per task that
+    can buy it.  O(n S + K S) for the flow, plus one bundle search per unstaffed task when
+    it fails.
     """
     live = np.flatnonzero(~dead)
     if live.size == 0 or staffed[live].all():  # all staffed: jointly staffable
@@ -495,9 +987,11 @@ def _rounds_left(
     demand = reqs[live].sum(axis=0)  # live tasks need k_j <= n robots each: no overflow
     if _staffable(finder, demand):
         return None
-    tasks_per_service = (reqs[live] > 0).sum(axis=0).astype(np.int64)
-    # a robot's wage rises by at most one per task that can buy it, per round
-    rise = np.minimum(caps64 @ tasks_per_service, live.size)
+    if once:
+        rise = np.ones(caps64.shape[0], dtype=np.int64)
+    else:  # a robot's wage rises by at most one per task that can buy it, per round
+        tasks_per_service = (reqs[live] > 0).sum(axis=0).astype(np.int64)
+        rise = np.minimum(caps64 @ tasks_per_service, live.size)
     least = None
     for j in live.tolist():
         if staffed[j]:

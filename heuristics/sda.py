@@ -24,6 +24,7 @@ from heuristics._auction import (
     check_order,
 )
 from heuristics._run import Run, seed_label
+from heuristics.communication import comm_model, communication_table, table_cost
 
 __all__ = ["SCHEDULES", "sda"]
 
@@ -39,6 +40,8 @@ def sda(
     schedule: str = "max-wage",
     seed: SeedLike = None,
     order: str = "index",
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run the simultaneous descending auction (centralized, synchronous) on ``mission``.
 
@@ -55,12 +58,20 @@ def sda(
         Recorded only: SDA makes no random choice (every tie goes to the lowest index).
     order : {"index"}
         Accepted for the registry's common signature; there is no robot order to choose.
+    medium : {"broadcast", "unicast"}, default "broadcast"
+        How ``messages`` and ``bytes`` count an announcement to several agents: one
+        transmission, or one message per receiver (Counting below,
+        :mod:`heuristics.communication`).
+    encoding : {"full", "compact"}, default "full"
+        Accepted and recorded for the common signature: the encoding is that of beliefs
+        (partitions), and SDA sends none, so both give the same counts.
 
     Returns
     -------
     Run
         ``algorithm="sda"``; ``iterations`` = rounds with at least one award; ``trajectory``
-        one row ``(iteration, robot, task, service)`` per sold robot.
+        one row ``(iteration, robot, task, service)`` per sold robot; ``options`` records
+        ``medium`` and ``encoding``, ``communication`` the counts under every model.
 
     Notes
     -----
@@ -118,10 +129,16 @@ def sda(
     is one message to each service agent of the task's needed services (``r_js`` entries);
     every bid message is answered (accept or reject, header only); after an award round
     each service agent that sold robots tells every still unstaffed task needing its service
-    (one entry per sold robot).  ``work`` counts the cost-matrix entries of the bundle
-    selections the literal auction performs: every round, every unstaffed task matches
-    ``(unsold robots having one of its services) x k_j`` entries, and so does each re-bid;
-    the engine itself does far less (it restricts candidates, see :mod:`heuristics._auction`).
+    (one entry per sold robot).  These counts are ``medium="unicast"``'s: one message per
+    receiver.  Under ``"broadcast"`` (the default) the announcements -- a wage decrement
+    and a sale, whose content is the same for every task told -- are one transmission per
+    service agent announcing (to at least one task), of the same size; bids and answers
+    are direct messages (their content is the receiver's), one transmission each under
+    both media.  The encoding changes nothing (no partition is sent).  ``work`` counts the
+    cost-matrix entries of the bundle selections the literal auction performs: every
+    round, every unstaffed task matches ``(unsold robots having one of its services) x
+    k_j`` entries, and so does each re-bid; the engine itself does far less (it restricts
+    candidates, see :mod:`heuristics._auction`).
 
     Complexity: O(m) award rounds, each costing O(m' (log q) M) where ``m'`` is the number of
     tasks whose crossing sweep is near the front and ``M`` one matching on at most
@@ -137,6 +154,11 @@ def sda(
     ([0, 0, 1], 14.0)
     >>> run.rounds, run.iterations
     (19, 2)
+    >>> # 19 decrement notices (one broadcast each, 8 + 12 bytes; unicast: to the 2 tasks
+    >>> # for 17 rounds, then to t1 alone: 36), 2 bids and 2 answers (direct), 1 sale
+    >>> # notice of 2 entries to t1 (after t1's sale there is no task left to tell)
+    >>> run.messages, run.bytes, run.communication_cost("unicast")
+    (24, 480, (41, 820))
     """
     started = time.perf_counter()
     require_mission(mission)
@@ -144,20 +166,30 @@ def sda(
     if schedule not in SCHEDULES:
         raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
     check_order(order)
+    comm = comm_model(medium, encoding)
     np.random.default_rng(seed)  # validates the seed; SDA draws nothing
     out = _core(mission, eps_q, schedule)
+    table = communication_table(
+        lambda c: (
+            (out.messages, out.bytes)
+            if c.medium == "unicast"
+            else (out.cast_messages, out.cast_bytes)
+        )
+    )
+    messages, nbytes = table_cost(table, comm)
     return Run(
         algorithm="sda",
         assignment=Assignment(task=out.task, service=out.service),
         iterations=out.iterations,
         rounds=out.rounds,
-        messages=out.messages,
-        bytes=out.bytes,
+        messages=messages,
+        bytes=nbytes,
         work=out.work,
         seconds=time.perf_counter() - started,
         seed=seed_label(seed),
         trajectory=np.array(out.moves, dtype=np.int64).reshape(-1, 4),
-        options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order)),
+        options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order), *comm.options),
+        communication=table,
     )
 
 
@@ -167,10 +199,19 @@ class _Outcome:
     service: npt.NDArray[np.int64]
     iterations: int = 0
     rounds: int = 0
-    messages: int = 0
+    messages: int = 0  # unicast: one per receiver
     bytes: int = 0
+    cast_messages: int = 0  # broadcast: one per announcement, one per direct message
+    cast_bytes: int = 0
     work: int = 0
     moves: list[tuple[int, int, int, int]] = field(default_factory=list)
+
+    def direct(self, messages: int, nbytes: int) -> None:
+        """Count direct messages (bids, answers): the same under both media."""
+        self.messages += messages
+        self.bytes += nbytes
+        self.cast_messages += messages
+        self.cast_bytes += nbytes
 
 
 def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
@@ -277,6 +318,9 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             has = sizes > 0
             out.messages += dec_rounds * int(A[has].sum())
             out.bytes += dec_rounds * int((A * (HEADER_BYTES + ENTRY_BYTES * sizes))[has].sum())
+            cast = has & (A > 0)  # one broadcast per service agent with a task to tell
+            out.cast_messages += dec_rounds * int(cast.sum())
+            out.cast_bytes += dec_rounds * int((HEADER_BYTES + ENTRY_BYTES * sizes)[cast].sum())
             return
         q = alive.size
         x0 = min(q * D, total + (t_from - 1 - R))
@@ -285,14 +329,19 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             return
         wt = caps64[alive] @ A  # notices per decrement of each unsold robot
         pref = np.concatenate(([0], np.cumsum(wt)))
+        # broadcast: one notice per service agent of the robot with a task to tell
+        pref_cast = np.concatenate(([0], np.cumsum(caps64[alive] @ (A > 0).astype(np.int64))))
 
-        def upto(x: int) -> int:
+        def upto(x: int, prefix: npt.NDArray[np.int64]) -> int:
             full, rest = divmod(x, q)
-            return full * int(pref[q]) + int(pref[rest])
+            return full * int(prefix[q]) + int(prefix[rest])
 
-        msgs = upto(x1) - upto(x0)
+        msgs = upto(x1, pref) - upto(x0, pref)
         out.messages += msgs
         out.bytes += msgs * (HEADER_BYTES + ENTRY_BYTES)
+        casts = upto(x1, pref_cast) - upto(x0, pref_cast)
+        out.cast_messages += casts
+        out.cast_bytes += casts * (HEADER_BYTES + ENTRY_BYTES)
 
     while alive.size and not staffed.all():
         # ---- find the next award round and its bidders
@@ -336,8 +385,7 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             _, j, _ = heapq.heappop(heap)
             b = bundles[j]
             n_msg = len(finder.need[j])
-            out.messages += n_msg  # the answers
-            out.bytes += n_msg * HEADER_BYTES
+            out.direct(n_msg, n_msg * HEADER_BYTES)  # the answers
             if sold_round[b.robots].any():  # rejected: recompute on what is left
                 out.work += int(rows[j]) * k[j]
                 nb = finder.cheapest(j, pools, wfull)
@@ -365,6 +413,9 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
         has = sold_per_service > 0
         out.messages += int(A[has].sum())
         out.bytes += int((A * (HEADER_BYTES + ENTRY_BYTES * sold_per_service))[has].sum())
+        cast = has & (A > 0)
+        out.cast_messages += int(cast.sum())
+        out.cast_bytes += int((HEADER_BYTES + ENTRY_BYTES * sold_per_service)[cast].sum())
         unsold &= ~sold_round
         if not uniform:  # decrements of the robots left: a + (1 if position < r)
             a, r = divmod(x, alive.size)
@@ -384,5 +435,4 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
 
 def _bid_messages(out: _Outcome, finder: BundleFinder, j: int) -> None:
     counts = finder.counts[j]
-    out.messages += len(counts)
-    out.bytes += len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts)
+    out.direct(len(counts), len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts))

@@ -21,8 +21,8 @@ Examples
 >>> [r.robots for r in rungs], [r.iterations for r in rungs]
 ([20, 40, 80], [20, 40, 80])
 >>> fit = fit_exponent([r.robots for r in rungs], [r.messages for r in rungs])
->>> round(fit.slope, 2)          # (n + 1) rounds of n (n - 1) messages
-3.0
+>>> round(fit.slope, 2)          # (n + 1) rounds of n broadcasts: n (n + 1)
+1.97
 """
 
 from __future__ import annotations

@@ -122,6 +122,7 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
     unsold, staffed = set(range(n)), set()
     task, service = [-1] * n, [-1] * n
     rounds = iterations = messages = nbytes = work = 0
+    cast = cast_bytes = 0  # the broadcast medium: one transmission per announcement
     ambiguous = False
 
     def rows(j):
@@ -140,6 +141,9 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
                 notes = sum(A[s] for s in range(S) if caps[i][s])
                 messages += notes
                 nbytes += 20 * notes
+                casts = sum(1 for s in range(S) if caps[i][s] and A[s])
+                cast += casts
+                cast_bytes += 20 * casts
         else:
             if any(wage[i] > 0 for i in unsold):
                 for i in unsold:
@@ -149,6 +153,9 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
                     if size:
                         messages += A[s]
                         nbytes += A[s] * (8 + 12 * size)
+                        if A[s]:
+                            cast += 1
+                            cast_bytes += 8 + 12 * size
         # (2) bids
         bids = {}
         for j in open_tasks:
@@ -159,6 +166,8 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
                 bids[j] = (key[0], b)
                 messages += len(need[j])
                 nbytes += 8 * len(need[j]) + 12 * k[j]
+                cast += len(need[j])  # bids are direct
+                cast_bytes += 8 * len(need[j]) + 12 * k[j]
         # (3) awards
         sold_now = set()
         if bids:
@@ -168,6 +177,8 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
             _, b = bids.pop(j)
             messages += len(need[j])
             nbytes += 8 * len(need[j])
+            cast += len(need[j])  # answers are direct
+            cast_bytes += 8 * len(need[j])
             if any(i in sold_now for i, _ in b):
                 work += rows(j) * k[j]
                 key, nb, amb = best_bundle(caps, need[j], sorted(unsold), wage)
@@ -176,6 +187,8 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
                     bids[j] = (key[0], nb)
                     messages += len(need[j])
                     nbytes += 8 * len(need[j]) + 12 * k[j]
+                    cast += len(need[j])
+                    cast_bytes += 8 * len(need[j]) + 12 * k[j]
                 continue
             staffed.add(j)
             for i, s in b:
@@ -189,6 +202,9 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
                     a_s = sum(1 for j in range(m) if j not in staffed and reqs[j][s])
                     messages += a_s
                     nbytes += a_s * (8 + 12 * c)
+                    if a_s:
+                        cast += 1
+                        cast_bytes += 8 + 12 * c
         if all(wage[i] == 0 for i in unsold):
             break
     return dict(
@@ -198,6 +214,8 @@ def literal_sda(mission, eps=Fraction(1), schedule="max-wage"):
         iterations=iterations,
         messages=messages,
         bytes=nbytes,
+        cast=cast,
+        cast_bytes=cast_bytes,
         work=work,
         ambiguous=ambiguous,
     )
@@ -283,16 +301,20 @@ def test_sda_matches_literal_auction(schedule, eps, mission):
     run = sda(mission, eps=eps, schedule=schedule)
     assert run.assignment.task.tolist() == ref["task"]
     independent_utility(mission, run.assignment.task, run.assignment.service)
-    for name in ("rounds", "iterations", "messages", "bytes", "work"):
+    for name in ("rounds", "iterations", "work"):
         assert getattr(run, name) == ref[name], name
+    assert (run.messages, run.bytes) == (ref["cast"], ref["cast_bytes"])  # broadcast
+    assert run.communication_cost("unicast") == (ref["messages"], ref["bytes"])
+    assert sda(mission, eps=eps, schedule=schedule, medium="unicast").messages == ref["messages"]
 
 
 @pytest.mark.parametrize("eps", [None, Fraction(1, 2), Fraction(1)])
 @given(mission=small_missions(max_robots=5))
-def test_rachna_matches_literal_auction(eps, mission):
+def test_sequential_rachna_matches_literal_auction(eps, mission):
+    # literal_rachna is the sequential reading; the simultaneous one is in test_rachna.py
     ref = literal_rachna(mission, eps)
     assume(not ref["ambiguous"])
-    run = rachna_dt(mission, eps=eps)
+    run = rachna_dt(mission, eps=eps, schedule="sequential")
     assert run.assignment.task.tolist() == ref["task"]
     assert (run.rounds, run.iterations) == (ref["rounds"], ref["iterations"])
 

@@ -62,6 +62,9 @@ def test_engines_agree_on_a_seed_family_mission() -> None:
 def test_reference_messages_are_materialised_with_the_documented_size() -> None:
     # The reference builds every message as bytes; the fast engine uses the formula.
     mission = Mission.from_arrays(np.ones((7, 2), bool), [[2, 1], [1, 3]], [1, 1])
-    ref = grape_s_reference(mission)
+    ref = grape_s_reference(mission)  # broadcast: one transmission per robot and round
+    assert ref.messages == ref.rounds * 7
+    assert ref.bytes == ref.messages * (16 + 4 * 7)
+    ref = grape_s_reference(mission, medium="unicast")
     assert ref.messages == ref.rounds * 7 * 6
     assert ref.bytes == ref.messages * (16 + 4 * 7)

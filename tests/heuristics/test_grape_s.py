@@ -46,8 +46,10 @@ def test_counts_follow_the_documented_model() -> None:
     run = grape_s(m)
     n = m.n_robots
     assert run.rounds == run.iterations + 1
-    assert run.messages == run.rounds * n * (n - 1)
+    assert run.messages == run.rounds * n  # one broadcast per robot and round
     assert run.bytes == run.messages * (16 + 4 * n)
+    unicast = run.rounds * n * (n - 1)
+    assert run.communication_cost("unicast") == (unicast, unicast * (16 + 4 * n))
     slots_per_service = (m.requirements > 0).sum(axis=0)
     per_round = int((m.capabilities.astype(np.int64) @ slots_per_service).sum())
     assert run.work == run.rounds * per_round

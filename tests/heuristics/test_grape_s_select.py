@@ -230,7 +230,12 @@ def test_exchange_gives_up_a_cheaper_task_for_a_better_one() -> None:
     with_exchange, without = grape_s_select(m), grape_s_select(m, exchange=False)
     assert with_exchange.assignment.utility(m) == 12.0
     assert without.assignment.utility(m) == 4.0
-    assert with_exchange.options == (("order", "index"), ("exchange", True))
+    assert with_exchange.options == (
+        ("order", "index"),
+        ("exchange", True),
+        ("medium", "broadcast"),
+        ("encoding", "full"),
+    )
 
 
 def test_the_knapsack_family_bounds_the_minimum_near_one_half() -> None:
@@ -266,8 +271,10 @@ def test_counts_follow_the_documented_model() -> None:
     moves = int((run.trajectory[:, 2] >= 0).sum())
     assert run.iterations == len(set(run.trajectory[:, 0].tolist()))
     assert run.rounds > run.iterations >= moves
-    assert run.messages == run.rounds * n * (n - 1)
+    assert run.messages == run.rounds * n  # one broadcast per robot and round
     assert run.bytes == run.messages * (16 + 4 * n + (tasks + 3) // 4)
+    unicast = run.rounds * n * (n - 1)
+    assert run.communication_cost("unicast") == (unicast, unicast * (16 + 4 * n + (tasks + 3) // 4))
     slots_per_service = (m.requirements > 0).sum(axis=0)
     per_round = int((m.capabilities.astype(np.int64) @ slots_per_service).sum())
     assert run.work >= run.rounds * per_round
@@ -459,7 +466,12 @@ def test_run_serialises() -> None:
     m = Mission.from_arrays([[1], [1], [1]], [[2], [2]], [10, 4])
     d = grape_s_select(m, seed=7).to_dict(m)
     assert d["algorithm"] == "grape-s-select" and d["seed"] == 7
-    assert d["options"] == {"order": "index", "exchange": True}
+    assert d["options"] == {
+        "order": "index",
+        "exchange": True,
+        "medium": "broadcast",
+        "encoding": "full",
+    }
     assert Assignment.from_dict(m, {"assignment": d["assignment"]}).task.tolist() == [0, 0, 0]
 
 

@@ -13,7 +13,8 @@ from scipy.sparse.csgraph import maximum_bipartite_matching
 
 import proofs
 from cfopt import GridCell, Mission, MissionError, generate_mission, solve_exact
-from heuristics import broadcast_cost, grape_s, pair_grape_s
+from heuristics import belief_bytes, broadcast_cost, grape_s, pair_grape_s
+from heuristics.communication import CommModel
 from heuristics.pair_grape_s_chain import ACCEPT_BYTES, pair_grape_s_chain, request_bytes
 from proofs.claims_chain import achievable
 from proofs.strategies import achievable_missions, missions
@@ -57,10 +58,12 @@ def test_chain_completes_what_pair_grape_s_cannot() -> None:
     # r2 -> the short C
     assert run.trajectory.tolist()[2:] == [[3, 0, 0, 0], [3, 1, 0, 1], [3, 2, 0, 2]]
     assert phase2_chains(run) == [2]
-    messages, nbytes = broadcast_cost(3, run.rounds)
     assert run.rounds == 2 + 1 + 1
-    assert run.messages == messages + 2 * 2
-    assert run.bytes == nbytes + 2 * (request_bytes(2) + ACCEPT_BYTES)
+    direct = (2 * 2, 2 * (request_bytes(2) + ACCEPT_BYTES))
+    messages, nbytes = CommModel().rounds_cost(3, run.rounds, belief_bytes(3))  # broadcast
+    assert (run.messages, run.bytes) == (messages + direct[0], nbytes + direct[1])
+    messages, nbytes = broadcast_cost(3, run.rounds)  # point to point
+    assert run.communication_cost("unicast") == (messages + direct[0], nbytes + direct[1])
 
 
 def test_direct_join_under_utility_reward() -> None:
@@ -160,7 +163,8 @@ def test_valid_maximum_and_accounted_on_any_mission(mission, order, seed, reward
     assert task.tolist() == a.task.tolist() and service.tolist() == a.service.tolist()
     chains = phase2_chains(run)
     assert len(chains) == run.exchanges
-    messages, nbytes = broadcast_cost(mission.n_robots, run.rounds)
+    n = mission.n_robots
+    messages, nbytes = CommModel().rounds_cost(n, run.rounds, belief_bytes(n))
     assert run.messages == messages + 2 * sum(chains)
     assert run.bytes == nbytes + sum(k * (request_bytes(k) + ACCEPT_BYTES) for k in chains)
     # a step that ends with a short slot and an unassigned robot ended by a quiet pass
@@ -247,6 +251,8 @@ def test_same_mission_same_seed_same_run(order) -> None:
             "order": order,
             "capped": True,
             "reward": "paper",
+            "medium": "broadcast",
+            "encoding": "full",
         }
 
 
