@@ -1,6 +1,7 @@
 """Wall-clock benchmark of the distributed simulator (issue targets in parentheses).
 
-Run: ``python benchmarks/bench_distributed.py [--repeats 3] [--quick] [--kernels]``.
+Run: ``python benchmarks/bench_distributed.py [--repeats 3] [--quick] [--kernels]
+[--algorithm NAME ...]``.
 Prints medians of ``--repeats`` runs, each in a fresh process (so that its peak resident
 memory is its own), on the seed's network unless stated:
 
@@ -8,6 +9,7 @@ memory is its own), on the seed's network unless stated:
   loss, broadcast: the seed's largest distributed cell (< 2 s and < 60 s);
 * GRAPE-S, 1000 robots, 10 % tasks, 10:5, random geometric topology (< 120 s, < 2 GB);
 * SDA, the seed's 500-robot, 10 %-task distributed cell (< 5 min);
+* GRAPE-S-Select, 100 and 500 robots, 50 % tasks, 10:5, over-subscribed (load 1.25);
 * with ``--kernels``: the same 500-robot GRAPE-S run driven by simpy's event loop instead
   of the heap (needs ``pip install simpy``), to compare the two kernels.
 
@@ -24,22 +26,26 @@ import subprocess
 import sys
 
 SEED_NETWORK = "complete latency=uniform:1ms:10ms loss=0.01"
+#: (algorithm, robots, percent tasks, (service types, services per robot), load, network,
+#: target)
 CASES = [
-    ("grape-s", 100, 50, (10, 5), SEED_NETWORK, "< 2 s"),
-    ("grape-s", 500, 50, (10, 5), SEED_NETWORK, "< 60 s"),
-    ("grape-s", 1000, 10, (10, 5), "geometric radius=0.08 " + SEED_NETWORK[9:], "< 120 s"),
-    ("pair-grape-s", 500, 50, (10, 5), SEED_NETWORK, "-"),
-    ("sda", 100, 10, (10, 5), SEED_NETWORK, "-"),
-    ("sda", 500, 10, (10, 5), SEED_NETWORK, "< 5 min"),
-    ("sda", 500, 10, (5, 1), SEED_NETWORK, "< 5 min"),
+    ("grape-s", 100, 50, (10, 5), 1.0, SEED_NETWORK, "< 2 s"),
+    ("grape-s", 500, 50, (10, 5), 1.0, SEED_NETWORK, "< 60 s"),
+    ("grape-s", 1000, 10, (10, 5), 1.0, "geometric radius=0.08 " + SEED_NETWORK[9:], "< 120 s"),
+    ("pair-grape-s", 500, 50, (10, 5), 1.0, SEED_NETWORK, "-"),
+    ("sda", 100, 10, (10, 5), 1.0, SEED_NETWORK, "-"),
+    ("sda", 500, 10, (10, 5), 1.0, SEED_NETWORK, "< 5 min"),
+    ("sda", 500, 10, (5, 1), 1.0, SEED_NETWORK, "< 5 min"),
+    ("grape-s-select", 100, 50, (10, 5), 1.25, SEED_NETWORK, "-"),
+    ("grape-s-select", 500, 50, (10, 5), 1.25, SEED_NETWORK, "-"),
 ]
 
 _CHILD = """
 import json, resource, sys, time
 import cfopt
 from heuristics.simulate import simulate
-algorithm, n, p, s, k, network, kernel = json.loads(sys.argv[1])
-m = cfopt.GridCell(n, p, s, k).mission(0)
+algorithm, n, p, s, k, load, network, kernel = json.loads(sys.argv[1])
+m = cfopt.GridCell(n, p, s, k, load).mission(0)
 if kernel == "simpy":
     sys.path.insert(0, "benchmarks")
     from bench_distributed import simpy_simulate as run_it
@@ -97,8 +103,8 @@ def simpy_simulate(mission, algorithm, network, *, seed):
 
 
 def measure(case, kernel: str, repeats: int) -> dict:
-    algorithm, n, p, (s, k), network, _ = case
-    args = json.dumps([algorithm, n, p, s, k, network, kernel])
+    algorithm, n, p, (s, k), load, network, _ = case
+    args = json.dumps([algorithm, n, p, s, k, load, network, kernel])
     runs = []
     for _ in range(repeats):
         out = subprocess.run(
@@ -114,20 +120,29 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="only the 100- and 500-robot GRAPE-S")
     parser.add_argument("--kernels", action="store_true", help="also time the simpy kernel")
+    parser.add_argument(
+        "--algorithm",
+        action="append",
+        metavar="NAME",
+        help="only the cases of this algorithm (repeatable)",
+    )
     args = parser.parse_args()
     cases = CASES[:2] if args.quick else CASES
+    if args.algorithm:
+        cases = [case for case in cases if case[0] in args.algorithm]
     print(f"median of {args.repeats} runs, each in a fresh process; mission 0 of each cell\n")
     header = (
-        f"{'case':<44}{'target':>9}{'wall s':>9}{'sim s':>8}{'ticks/s':>10}"
+        f"{'case':<52}{'target':>9}{'wall s':>9}{'sim s':>8}{'ticks/s':>10}"
         f"{'util%':>8}{'conv':>6}{'MB':>10}{'RSS MB':>8}"
     )
     print(header)
     for case in cases:
-        algorithm, n, p, (s, k), network, target = case
+        algorithm, n, p, (s, k), load, network, target = case
         r = measure(case, "heap", args.repeats)
-        label = f"{algorithm} n={n} p={p}% {s}:{k} {network.split()[0]}"
+        over = f" load={load:g}" if load != 1 else ""
+        label = f"{algorithm} n={n} p={p}% {s}:{k}{over} {network.split()[0]}"
         print(
-            f"{label:<44}{target:>9}{r['wall']:>9.2f}{r['sim']:>8.2f}"
+            f"{label:<52}{target:>9}{r['wall']:>9.2f}{r['sim']:>8.2f}"
             f"{r['ticks'] / r['wall']:>10.0f}{r['utility']:>8.2f}"
             f"{'yes' if r['converged'] else 'no':>6}"
             f"{r['mb']:>10.1f}{r['rss']:>8.0f}"

@@ -140,7 +140,8 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
-from heuristics._run import Run, broadcast_cost, check_order, moves_run
+from heuristics._run import Run, check_order, moves_run
+from heuristics.communication import belief_rounds_table, comm_model, table_cost
 
 __all__ = ["fillable", "grape_s_select", "select_priorities"]
 
@@ -158,6 +159,8 @@ def grape_s_select(
     seed: SeedLike = None,
     order: str = "index",
     exchange: bool = True,
+    medium: str = "broadcast",
+    encoding: str = "full",
 ) -> Run:
     """Run GRAPE-S-Select (centralized, synchronous, fully connected) on ``mission``.
 
@@ -172,6 +175,11 @@ def grape_s_select(
     exchange : bool, default True
         Enable the exchange step (phase 3 of the module notes); ``False`` keeps only the
         close and reopen steps (an ablation).
+    medium : {"broadcast", "unicast"}, default "broadcast"
+    encoding : {"full", "compact"}, default "full"
+        The communication model of ``messages`` and ``bytes`` (Counting below,
+        :mod:`heuristics.communication`); recorded in ``options``, and ``communication``
+        holds the counts under every model.
 
     Returns
     -------
@@ -188,8 +196,10 @@ def grape_s_select(
     Counting.  ``rounds`` = moves + phase steps + 1 (the last, quiet round);
     ``iterations`` = rounds in which the partition changed (moves, close and exchange
     steps; a reopening changes only the task bits).  Every robot broadcasts its belief to
-    its ``n - 1`` neighbours every round: ``messages = rounds n (n - 1)``
-    (:func:`heuristics.broadcast_cost`), each ``16 + 4 n + ceil(m / 4)`` bytes.  ``work``
+    its ``n - 1`` neighbours every round: ``messages = rounds n`` transmissions
+    (``medium="broadcast"``) or ``rounds n (n - 1)`` messages (``"unicast"``), each ``16 +
+    4 n + ceil(m / 4)`` bytes (``encoding="full"``) or ``16 + ceil((n ceil(log2(m S + 1))
+    + 2 m) / 8)`` (``"compact"``: slots and task bits packed together).  ``work``
     is in GRAPE-S's unit, slot examinations: every round every robot examines every slot of
     every service it has (``P`` per round, ``rounds * P``); phase steps add what they
     examine -- ``m`` task states per step, one unit per (candidate, donor, service)
@@ -216,8 +226,8 @@ def grape_s_select(
     >>> run = grape_s_select(m)
     >>> run.trajectory.tolist()       # (iteration, robot, task, service); -1: released
     [[1, 2, 0, 0], [2, 1, 0, 0], [3, 0, 1, 0], [4, 0, -1, -1], [5, 0, 0, 0]]
-    >>> run.iterations, run.rounds, run.messages, run.bytes
-    (5, 6, 36, 1044)
+    >>> run.iterations, run.rounds, run.messages, run.bytes   # 6 x 3 of 16 + 12 + 1 bytes
+    (5, 6, 18, 522)
 
     On an over-subscribed mission of the seed's family (load 1.5: the tasks need 150
     robots, there are 100):
@@ -233,11 +243,12 @@ def grape_s_select(
     started = time.perf_counter()
     require_mission(mission)
     check_order(order)
+    comm = comm_model(medium, encoding)
     rng = np.random.default_rng(seed)
     out = _Engine(mission, order, bool(exchange), rng).run()
     n, m = mission.n_robots, mission.n_tasks
-    messages, _ = broadcast_cost(n, out.rounds)
-    nbytes = messages * (16 + 4 * n + (m + 3) // 4)
+    table = belief_rounds_table(n, m * mission.n_services, out.rounds, extra_bits=2 * m)
+    messages, nbytes = table_cost(table, comm)
     return moves_run(
         "grape-s-select",
         out.task,
@@ -250,7 +261,8 @@ def grape_s_select(
         messages=messages,
         bytes=nbytes,
         work=out.work,
-        options=(("order", order), ("exchange", bool(exchange))),
+        options=(("order", order), ("exchange", bool(exchange)), *comm.options),
+        communication=table,
     )
 
 
@@ -513,13 +525,18 @@ class _Engine:
         self.svc_of_type = [np.flatnonzero(row).tolist() for row in self.kinds]
         slots_per_service = (reqs > 0).sum(axis=0).astype(np.int64)
         self.per_round = int(caps.astype(np.int64).sum(axis=0) @ slots_per_service)
-        # mutable state
+        self.absent = np.where(self.kinds, 0, -(2 * m + 2))  # a service the type lacks: never best
+        self._reset([not v for v in self.viable], [not v for v in self.viable])
+
+    def _reset(self, closed: list[bool], used: list[bool]) -> None:
+        """The mutable state: every robot unassigned, these task bits."""
+        n, m, S = self.n, self.m, self.S
         self.cnt = [0] * (m * S)
         self.short = list(self.REQ_l)  # robots missing per task
         self.nmem = [0] * m
         self.busy = [False] * m  # open, non-empty, incomplete: the close step's candidates
-        self.closed = [not v for v in self.viable]
-        self.used = [not v for v in self.viable]
+        self.closed = list(closed)
+        self.used = list(used)
         self.members: defaultdict[int, set[int]] = defaultdict(set)  # per slot
         self.overfull: set[int] = set()
         self.rtask = [-1] * n  # Python lists: the hot path writes single entries
@@ -537,6 +554,27 @@ class _Engine:
             self._refresh(s)
         self.out = _Outcome(np.zeros(0, np.int64), np.zeros(0, np.int64))
         self.phase_work = [0]
+
+    def load(
+        self,
+        task: npt.ArrayLike,
+        service: npt.ArrayLike,
+        closed: npt.ArrayLike,
+        used: npt.ArrayLike,
+    ) -> None:
+        """Put the engine in the state of a partition with these task bits, as a run that
+        reached it would hold it (the distributed agents' belief,
+        :mod:`heuristics.agents.grape_s_select`); ``out`` and the phase work start empty.
+
+        The phase steps depend on this state alone (not on how it was reached), so
+        :meth:`phase_step` then makes the step a run would make there.  O(n log(m S)).
+        """
+        self._reset(np.asarray(closed, dtype=bool).tolist(), np.asarray(used, dtype=bool).tolist())
+        task_l = np.asarray(task, dtype=np.int64).tolist()
+        service_l = np.asarray(service, dtype=np.int64).tolist()
+        for i, (k, s) in enumerate(zip(task_l, service_l, strict=True)):
+            if k >= 0:
+                self._place(i, k, s)
 
     # -- slots
     def _joinable(self, k: int) -> bool:
@@ -650,12 +688,39 @@ class _Engine:
 
     def _choose_service(self, i: int, T: int, key: int, k: int) -> int:
         options = [s for s in self.svc_of_type[T] if self.top_l[s] == key]
+        return self.service_choice(options, self.cur, i, key, k, self.cnt)
+
+    def wants(
+        self, top: npt.NDArray[np.int64], cur: npt.NDArray[np.int64]
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
+        """Per capability type the best reward to join (``top``: per service), and per
+        robot whether it is strictly better than its reward ``cur``.  Pure."""
+        best = (top + self.absent).max(axis=1)
+        return best, cur < best[self.rtype]
+
+    def task_of_key(self, key: int) -> int:
+        """The task whose needed (``m + pi``) or surplus (``pi``) reward ``key`` is."""
+        return self.task_of_rank[key - self.m if key >= self.m else key]
+
+    def service_choice(
+        self,
+        options: list[int],
+        cur: npt.NDArray[np.int64],
+        i: int,
+        key: int,
+        k: int,
+        cnt: list[int] | npt.NDArray[np.int64],
+    ) -> int:
+        """The service robot ``i`` takes in task ``k`` among ``options`` (its services
+        whose best place, reward ``key``, is in ``k``): the smallest slack, then the larger
+        scarcity, then the lower index (module notes).  Pure: the robots' rewards ``cur``
+        and the slot counts ``cnt`` are arguments."""
         if len(options) == 1:
             return options[0]
-        lower = self.cur < key
+        lower = cur < key
         lower[i] = False
         per = np.bincount(self.rtype[lower], minlength=self.K) @ self.kinds_i
-        S, cnt, req = self.S, self.cnt, self.req
+        S, req = self.S, self.req
         return min(
             options,
             key=lambda s: (
@@ -674,18 +739,17 @@ class _Engine:
             out.task = out.service = np.zeros(0, dtype=np.int64)
             return out
         rtype, cur, top = self.rtype, self.cur, self.top
-        absent = np.where(self.kinds, 0, -(2 * m + 2))  # a service the type lacks: never best
         random_order = self.order == "random"
-        place, choose, task_of_rank, moves = (
+        place, choose, task_of_rank, moves, wants = (
             self._place,
             self._choose_service,
             self.task_of_rank,
             out.moves,
+            self.wants,
         )
         while True:
             out.rounds += 1
-            best = (top + absent).max(axis=1)
-            want = cur < best[rtype]
+            best, want = wants(top, cur)
             if random_order:
                 perm = self.rng.permutation(n)
                 ordered = want[perm]
@@ -703,7 +767,7 @@ class _Engine:
                 place(mover, k, s)
                 moves.append((out.iterations, mover, k, s))
                 continue
-            if self._close() or self._reopen() or (self.exchange and self._exchange()):
+            if self.phase_step():
                 continue
             break
         out.work = out.rounds * self.per_round + self.phase_work[0]
@@ -712,6 +776,11 @@ class _Engine:
         return out
 
     # -- phase steps
+    def phase_step(self) -> bool:
+        """Make the first phase step that applies (close, reopen, exchange if enabled) on
+        the current state; ``False``: none applies (the run ends)."""
+        return self._close() or self._reopen() or (self.exchange and self._exchange())
+
     def _close(self) -> bool:
         self.phase_work[0] += self.m
         cand = np.array(self.busy, dtype=bool)

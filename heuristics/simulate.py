@@ -38,8 +38,9 @@ Each robot performs the slot *its own* final belief gives it; the run's assignme
 exactly that, so a run whose robots disagree is scored by what they actually do.  The
 observer (which no agent can see) records when all robots first held one belief that is
 final for the algorithm (Nash stable for GRAPE-S, nothing left for the pairwise step of
-Pair-GRAPE-S) and stayed there; a run that has not ended by its simulated time limit is
-*cut* and reported as such, with the robots' beliefs as they stand.
+Pair-GRAPE-S, no move and no phase step left for GRAPE-S-Select) and stayed there; a run
+that has not ended by its simulated time limit is *cut* and reported as such, with the
+robots' beliefs as they stand.
 """
 
 from __future__ import annotations
@@ -66,6 +67,12 @@ from heuristics.agents.grape_s import (
     chain_plan,
     pairwise_plan,
 )
+from heuristics.agents.grape_s_select import (
+    GrapeSSelectAgent,
+    SelectBelief,
+    SelectModel,
+    encode_select_belief,
+)
 from heuristics.network import Clocks, Links, Network, NetworkSpec
 
 __all__ = ["DEFAULT_TIME_LIMIT", "QUIET_FACTOR", "NetworkReport", "simulate"]
@@ -75,7 +82,7 @@ DEFAULT_TIME_LIMIT = 3600.0
 #: ``K`` of the termination rule: a robot stops after ``K * d_G`` ticks without a change.
 QUIET_FACTOR = 2
 #: Distributed algorithms the simulator runs.
-DISTRIBUTED = ("grape-s", "pair-grape-s", "sda", "pair-grape-s-chain")
+DISTRIBUTED = ("grape-s", "pair-grape-s", "sda", "pair-grape-s-chain", "grape-s-select")
 _ID_BITS = 20  # a key (r, time, id) packs time and id into one int64: time * 2**20 + id + 1
 _MAX_TIME_NS = (2**63 - 1) >> _ID_BITS
 _NEVER = np.iinfo(np.int64).max
@@ -158,7 +165,7 @@ def simulate(
     Parameters
     ----------
     mission : cfopt.Mission
-    algorithm : {"grape-s", "pair-grape-s", "pair-grape-s-chain", "sda"}
+    algorithm : {"grape-s", "pair-grape-s", "pair-grape-s-chain", "sda", "grape-s-select"}
         The algorithms with agents (:data:`DISTRIBUTED`); RACHNA_dt has none (the seed did
         not run it distributed either).
     network : str or NetworkSpec
@@ -170,6 +177,8 @@ def simulate(
     quiet_factor : int, default 2
         ``K``: robots stop after ``K * d_G`` ticks without a change.
     reward : {"paper", "utility"}
+        GRAPE-S's reward weighting; ``"grape-s-select"`` has its own reward and takes only
+        the default.
     faults : callable, optional
         For experiments: ``faults(sender, receivers, now)`` is called for every
         transmission, after the network's own draws, with the receivers as an int64 array
@@ -177,7 +186,8 @@ def simulate(
         the same length, added to the drawn delays and or-ed into the losses.
     options : mapping, optional
         The algorithm's own options: for ``"sda"`` ``eps`` (the wage decrement, default 1)
-        and ``resend_tries`` (0, the plain protocol: see :mod:`heuristics.agents.sda`).
+        and ``resend_tries`` (0, the plain protocol: see :mod:`heuristics.agents.sda`); for
+        ``"grape-s-select"`` ``exchange`` (default ``True``: the exchange phase step).
 
     Returns
     -------
@@ -335,7 +345,8 @@ class Outcome:
     exchanges: int = 0
     pairwise_step_ran: bool = False
     options: tuple[tuple[str, Any], ...] = ()
-    work: int = 0  # counted work of message-driven agents (clocked ones are counted per tick)
+    # counted work of message-driven agents and of phase steps (ticks are counted per tick)
+    work: int = 0
 
 
 class Protocol:
@@ -356,6 +367,11 @@ class Protocol:
 
     def make_agents(self, sim: _Simulation) -> list[Any]:
         raise NotImplementedError
+
+    def encode(self, belief: Belief, agent: Any) -> bytes:
+        """The message by which a clocked agent broadcasts ``belief`` (the medium counts
+        its bytes)."""
+        return encode_belief(belief, pairwise=agent.pairwise)
 
     def outcome(self, sim: _Simulation) -> Outcome:
         raise NotImplementedError
@@ -425,8 +441,77 @@ class PairGrapeSChainProtocol(PairGrapeSProtocol):
         return chain_plan(sim.problem, belief) is None
 
 
+class GrapeSSelectProtocol(GrapeSProtocol):
+    """GRAPE-S-Select's agents (:class:`heuristics.agents.GrapeSSelectAgent`); final = no
+    robot has a move and no phase step applies.  Beliefs carry the task bits (``16 + 4 n +
+    ceil(m / 4)`` bytes); the trajectory and ``iterations`` count, as the centralized
+    engine does, the updates that changed the partition (moves, close and exchange steps,
+    not reopenings)."""
+
+    name = "grape-s-select"
+
+    def __init__(self, exchange: bool = True) -> None:
+        if not isinstance(exchange, bool | np.bool_):
+            raise MissionError(f"options: exchange must be True or False, got {exchange!r}")
+        self.exchange = bool(exchange)
+        self.model: SelectModel | None = None
+
+    def make_agents(self, sim: _Simulation) -> list[Any]:
+        if sim.reward != "paper":
+            raise MissionError(
+                f"reward: grape-s-select has its own reward, got reward={sim.reward!r}"
+            )
+        model = self.model = SelectModel(sim.mission, exchange=self.exchange)
+        return [GrapeSSelectAgent(i, sim.problem, model, sim.quiet_limit) for i in range(sim.n)]
+
+    def final(self, sim: _Simulation, belief: Belief) -> bool:
+        assert self.model is not None and isinstance(belief, SelectBelief)
+        return self.model.final(belief)
+
+    def encode(self, belief: Belief, agent: Any) -> bytes:
+        assert isinstance(belief, SelectBelief)
+        return encode_select_belief(belief)
+
+    def outcome(self, sim: _Simulation) -> Outcome:
+        assert self.model is not None
+        S = max(sim.mission.n_services, 1)
+        beliefs = [agent.belief for agent in sim.agents]
+        newest = max(beliefs, key=lambda b: b.key) if beliefs else self.model.initial()
+        agree = len(sim.held) <= 1
+        converged = agree and self.final(sim, newest)
+        when = None
+        if converged:
+            agreed = sim.agreed
+            when = agreed[1] if agreed is not None and agreed[0] == newest.key else 0
+        iterations = 0
+        trajectory = []
+        for _, changes, _ in reversed(_trail_nodes(newest)):  # oldest first
+            if changes:
+                iterations += 1
+                trajectory += [
+                    (iterations, robot, *((slot // S, slot % S) if slot >= 0 else (-1, -1)))
+                    for robot, slot in changes
+                ]
+        return Outcome(
+            iterations=iterations,
+            trajectory=trajectory,
+            converged=bool(converged),
+            beliefs_agree=bool(agree),
+            convergence_ns=when,
+            options=(("exchange", self.exchange),),
+            work=sum(agent.work for agent in sim.agents),
+        )
+
+
 def _protocol(algorithm: str, options: Mapping[str, Any] | None = None) -> Protocol:
     options = dict(options or {})
+    if algorithm == "grape-s-select":
+        unknown = [k for k in options if k != "exchange"]
+        if unknown:
+            raise MissionError(
+                f"options: grape-s-select's agents take exchange, not {unknown[0]!r}"
+            )
+        return GrapeSSelectProtocol(**options)
     if algorithm == "sda":
         from heuristics.agents.sda import SdaProtocol
 
@@ -534,7 +619,7 @@ class _Simulation:
         self.work += int(self.problem.examined[i])
         if belief.key != before:
             self._observe(i, before, belief.key, now)
-        self._broadcast(i, belief, now, agent.pairwise)
+        self._broadcast(i, belief, now, agent)
         for dest, message in sends:
             self._send(i, dest, message, now)
         if agent.stopped:
@@ -573,11 +658,11 @@ class _Simulation:
             self.agreed = (after, now)
 
     # ------------------------------------------------------------------ the medium
-    def _broadcast(self, i: int, belief: Belief, now: int, pairwise: bool) -> None:
+    def _broadcast(self, i: int, belief: Belief, now: int, agent: Any) -> None:
         receivers = self.network.neighbours(i)
         if receivers.size == 0:
             return
-        size = len(encode_belief(belief, pairwise=pairwise))
+        size = len(self.protocol.encode(belief, agent))
         delays, lost = self._transmit(i, receivers, now)
         sends = receivers.size if self.unicast else 1
         self.transmissions += sends

@@ -8,10 +8,12 @@ share these agents, so a simulated run and a real one execute the same code.
 
 from heuristics.agents.belief import Belief, Problem, decode_belief, encode_belief
 from heuristics.agents.grape_s import GrapeSAgent, PairGrapeSAgent
+from heuristics.agents.grape_s_select import GrapeSSelectAgent
 
 __all__ = [
     "Belief",
     "GrapeSAgent",
+    "GrapeSSelectAgent",
     "PairGrapeSAgent",
     "Problem",
     "decode_belief",
