@@ -143,6 +143,32 @@ def _add_workers_option(sub: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_scheduler_option(sub: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS|local:N``: run the trials on a dask cluster."""
+    sub.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS|local:N",
+        help="run the trials on a dask cluster: a running scheduler's address (e.g. "
+        "tcp://host:8786) or local:N, a local cluster of N worker processes started for "
+        'this run; the store stays with this process (needs: pip install "cfopt[cluster]")',
+    )
+
+
+def _trial_executor(args: argparse.Namespace) -> contextlib.AbstractContextManager[Any]:
+    """The executor of ``--scheduler`` for a ``with`` block, or ``None`` (``--workers``)."""
+    if args.scheduler is None:
+        return contextlib.nullcontext(None)
+    if args.workers is not None:
+        raise MissionError(
+            "--workers: not with --scheduler (the cluster's workers run the trials; "
+            "give local:N for N local worker processes)"
+        )
+    from cfopt.cluster import dask_executor, parse_scheduler
+
+    return dask_executor(parse_scheduler(args.scheduler))
+
+
 # ----------------------------------------------------------------------- commands
 def _add_generate(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
@@ -693,9 +719,11 @@ def _report_failures(outcome: Any, claim_failures: Sequence[tuple[str, str]] = (
     for claim_id, trace in claim_failures:
         sys.stderr.write(f"claim {claim_id}: the check failed:\n{trace}\n")
     if trial_failures or claim_failures:
+        died = sum(trace.startswith("WorkerDied:") for *_, trace in trial_failures)
+        why = "(a bug)" if died < len(trial_failures) + len(claim_failures) else "(workers died)"
         sys.stderr.write(
             f"{plural(len(trial_failures), 'trial')} and "
-            f"{plural(len(claim_failures), 'claim check')} failed (a bug); finished trials "
+            f"{plural(len(claim_failures), 'claim check')} failed {why}; finished trials "
             "are kept and the next run retries the rest\n"
         )
         return EXIT_BUG
@@ -796,6 +824,7 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         "then is marked (default 60)",
     )
     _add_workers_option(sub)
+    _add_scheduler_option(sub)
     sub.add_argument(
         "--store",
         default="cfopt-sweep.sqlite",
@@ -808,8 +837,6 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
 
     def run(args: argparse.Namespace) -> int:
         from cfopt import experiments
-
-        custom = args.robots is not None
         from cfopt._progress import Progress
 
         custom = args.robots is not None
@@ -839,9 +866,14 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             base_seed=args.base_seed,
             time_limit=args.time_limit,
         )
-        outcome = experiments.run_sweep(
-            sweep, args.store, workers=args.workers, progress=Progress.auto(quiet=args.quiet)
-        )
+        with _trial_executor(args) as executor:
+            outcome = experiments.run_sweep(
+                sweep,
+                args.store,
+                executor=executor,
+                workers=args.workers,
+                progress=Progress.auto(quiet=args.quiet),
+            )
         if args.json:
             emit_json(
                 {

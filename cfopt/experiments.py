@@ -17,7 +17,8 @@ no trial lost or duplicated, and re-running a finished sweep does nothing.
 Trials run through any :class:`concurrent.futures.Executor`: a
 :class:`~concurrent.futures.ProcessPoolExecutor` by default (``workers``), the calling
 process for ``workers=1``, or one you pass -- ``dask.distributed.Client(...).get_executor()``
-works unchanged.
+works unchanged, and :func:`cfopt.cluster.dask_executor` (``cfopt sweep --scheduler``)
+adds a clear account of workers that died and of a lost scheduler.
 
 Examples
 --------
@@ -60,18 +61,20 @@ from cfopt._jsonio import read_json, read_text_file
 from cfopt._limits import require_memory
 from cfopt._progress import Progress
 from cfopt._workers import default_workers, make_executor, stop_executor
-from cfopt.errors import MissionError, describe, parameter_error
+from cfopt.errors import MissionError, describe, parameter_error, plural
 from cfopt.generate import SEED_NETWORK, GridCell, paper_distributed_grid, paper_grid
 from cfopt.store import EXACT, ResultStore, Trial, store_lock
 
 __all__ = [
     "EXACT",
     "GRIDS",
+    "ExecutorFailed",
     "ResultStore",
     "Sweep",
     "SweepInterrupted",
     "SweepOutcome",
     "Trial",
+    "WorkerDied",
     "audit_grid",
     "code_version",
     "describe_version",
@@ -387,7 +390,7 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
 _NOT_TRIAL_SOURCES = {
     "cfopt": (
         "cli.py", "report.py", "audit.py", "reproduce.py", "paper.py", "_progress.py",
-        "__main__.py",
+        "__main__.py", "cluster.py",
     )
 }  # fmt: skip
 
@@ -396,9 +399,10 @@ def code_version(scope: str = "trials") -> str:
     """``"<cfopt version>+<hash>"``: a digest of the sources that shape a result.
 
     With ``scope="trials"`` the hash covers ``cfopt`` (all modules but the CLI, the
-    report, the orchestration of the audit and of the reproduction, and the paper's
-    figures), ``heuristics`` and ``proofs/stability.py``: any change there is a new code
-    version, and a sweep re-runs its trials rather than mixing results of different code.
+    cluster executor, the report, the orchestration of the audit and of the reproduction,
+    and the paper's figures), ``heuristics`` and ``proofs/stability.py``: any change there
+    is a new code version, and a sweep re-runs its trials rather than mixing results of
+    different code.
     ``scope="claims"`` covers all of ``proofs`` as well (the claims' checks), and keys the
     audit's stored claim verdicts.
 
@@ -712,7 +716,26 @@ class SweepOutcome:
         return not self.failures and self.completed + self.skipped == self.total
 
 
+class WorkerDied(RuntimeError):
+    """A trial that never finished because the worker process running it died, each time
+    it ran (set on its future by a cluster executor such as :mod:`cfopt.cluster`).
+
+    The sweep records it as a failure with this message rather than a traceback (the
+    trial did not raise); it is not stored and the next run tries it again.
+    """
+
+
+class ExecutorFailed(MissionError):
+    """The executor can run no more trials (a cluster's scheduler is gone).
+
+    Set on a trial's future by the executor, it stops the sweep: :func:`run_sweep`
+    raises it again, its message completed with the trials kept in the store.
+    """
+
+
 def _format_failure(exc: BaseException) -> str:
+    if isinstance(exc, WorkerDied):
+        return f"{type(exc).__name__}: {exc}"
     return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)).rstrip()
 
 
@@ -768,8 +791,9 @@ def run_sweep(
     version : str, optional
         Code version of the trials (default: :func:`code_version`).
     max_pending : int, optional
-        Trials submitted but not finished at any time (default: 4 per worker, 64 for a
-        given executor).
+        Trials submitted but not finished at any time (default: 4 per worker; for a
+        given executor 4 per thread of its ``parallelism`` attribute when it has one, as
+        :class:`cfopt.cluster.DaskExecutor` does, and at least 64).
     extra_jobs, on_extra
         Further calls ``(fn, args, kwargs)`` to run on the same executor alongside the
         trials (the audit's claims checks); ``on_extra(index, future)`` receives each
@@ -789,6 +813,9 @@ def run_sweep(
         On SIGINT (Ctrl-C, ``KeyboardInterrupt``): pending trials are cancelled, the
         default executor's workers are stopped at once, the trials stored so far are
         kept, and the exception says how many.
+    ExecutorFailed
+        When the executor can run no more trials (a lost cluster scheduler): the
+        sweep stops, the trials stored so far are kept, and the message says how many.
 
     Notes
     -----
@@ -803,7 +830,7 @@ def run_sweep(
     with guard, ResultStore(store) as db:
         own = executor is None
         pool = make_executor(workers) if own else executor
-        limit = max_pending or (4 * (workers or default_workers()) if own else 64)
+        limit = max_pending or _default_pending(None if own else pool, workers)
         run = _SweepRun(sweep, db, pool, version, Progress.coerce(progress), limit)
         try:
             run.start(list(extra_jobs), on_extra)
@@ -815,6 +842,11 @@ def run_sweep(
             raise SweepInterrupted(
                 os.fspath(store), run.completed, run.remaining, _signal_name(exc)
             ) from None
+        except ExecutorFailed as exc:
+            if own:
+                stop_executor(pool)
+            run.close_stage("stopped")
+            raise _kept(exc, run.completed, os.fspath(store)) from None
         except BaseException:
             if own:
                 stop_executor(pool)
@@ -830,6 +862,24 @@ def run_sweep(
         skipped=run.skipped,
         failures=tuple(run.failures),
         seconds=time.perf_counter() - run.started,
+    )
+
+
+def _default_pending(executor: cf.Executor | None, workers: int | None) -> int:
+    """Trials in flight: 4 per worker of the default pool, 4 per thread of a given
+    executor that tells its ``parallelism`` (at least 64), else 64."""
+    if executor is None:
+        return 4 * (workers or default_workers())
+    slots = getattr(executor, "parallelism", None)
+    return max(64, 4 * slots) if isinstance(slots, int) else 64
+
+
+def _kept(exc: ExecutorFailed, completed: int, store: str) -> ExecutorFailed:
+    """``exc`` with what the stopped sweep kept, and for the command line how to resume."""
+    verb = "is" if completed == 1 else "are"
+    kept = f"{plural(completed, 'trial')} computed by this run {verb} kept in {store}"
+    return ExecutorFailed(
+        f"{exc}; {kept}", cli=f"{exc.cli_message}; {kept}; run the same command again to resume"
     )
 
 
@@ -942,6 +992,8 @@ class _SweepRun:
         _, cell, index, algorithm = what
         seed = cell.mission_seed(index, self.sweep.base_seed)
         exc = future.exception()
+        if isinstance(exc, ExecutorFailed):
+            raise exc
         if exc is not None:
             self.fail(cell.label, seed, algorithm, _format_failure(exc))
             if algorithm == EXACT:  # no optimum: the mission's heuristics cannot be scored
