@@ -370,6 +370,23 @@ class Latency:
             raw = rng.lognormal(math.log(first), self.sigma, size=size)
         return np.clip(np.rint(raw), 0, MAX_DELAY_NS).astype(np.int64)
 
+    def sample_one(self, rng: np.random.Generator) -> int:
+        """One delay as a Python int: the same draw from ``rng`` as ``sample(rng, 1)`` and
+        the same value (scalar generator calls consume the stream as size-1 calls do).
+        O(1) without numpy arrays: the simulator's direct messages take this path."""
+        first = self.durations_ns[0]
+        if self.is_fixed:
+            return int(first)
+        if self.kind == "uniform":
+            return int(rng.integers(first, self.durations_ns[1], endpoint=True))
+        if self.kind == "exponential":
+            raw = float(rng.exponential(float(first)))
+        else:
+            raw = float(rng.lognormal(math.log(first), self.sigma))
+        if not raw < MAX_DELAY_NS:
+            return MAX_DELAY_NS
+        return max(round(raw), 0)  # round half to even, as numpy's rint
+
 
 # ---------------------------------------------------------------------------- loss
 _LOSS_FORMS = "P or ge:P_GOOD_TO_BAD:P_BAD_TO_GOOD:LOSS_IN_BAD"
@@ -1775,6 +1792,27 @@ class Links:
         self.receptions += size
         self.losses += int(lost.sum())
         return delays, lost
+
+    def transmit_one(self, sender: int, receiver: int) -> tuple[int, bool]:
+        """:meth:`transmit` to one receiver, as ``(delay_ns, lost)`` plain values: the same
+        draws from the same generators, so the same result and the same later draws.
+        O(1) without numpy arrays for Bernoulli or no loss (the simulator sends every
+        direct message hop this way); Gilbert-Elliott loss goes through :meth:`transmit`.
+        """
+        if not self.loss.is_lossless and self.loss.kind != "bernoulli":
+            delays, lost = self.transmit(sender, [receiver])
+            return int(delays[0]), bool(lost[0])
+        n = self.network.n
+        if not 0 <= sender < n:
+            raise IndexError(f"sender {sender!r} is not in 0..{n - 1}")
+        if not 0 <= receiver < n or receiver == sender:
+            raise IndexError(f"receivers must be robots in 0..{n - 1} other than the sender")
+        delay = self.latency.sample_one(self._latency_rng)
+        lost = not self.loss.is_lossless and self._loss_rng.random() < self.loss.probabilities[0]
+        self.transmissions += 1
+        self.receptions += 1
+        self.losses += int(lost)
+        return delay, bool(lost)
 
     def broadcast(
         self, sender: int

@@ -695,14 +695,18 @@ class _Simulation:
 
     def _forward(self, dest: int, message: Any, size: int, at: int, now: int) -> None:
         nxt = self.network.next_hop(at, dest)
-        delays, lost = self._transmit(at, np.array([nxt], dtype=np.int64), now)
+        if self.faults is None:
+            delay, lost = self.links.transmit_one(at, nxt)
+        else:
+            delays, losts = self._transmit(at, np.array([nxt], dtype=np.int64), now)
+            delay, lost = int(delays[0]), bool(losts[0])
         self.transmissions += 1
         self.bytes += size
-        if lost[0]:
+        if lost:
             self.losses += 1
             return
         self.receptions += 1
-        arrival = now + int(delays[0])
+        arrival = now + delay
         heapq.heappush(self.heap, (arrival, next(self.seq), _HOP, (dest, message, size, nxt)))
 
     def _hop(self, payload: tuple[int, Any, int, int], now: int) -> None:

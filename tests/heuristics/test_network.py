@@ -570,3 +570,33 @@ def test_bernoulli_loss_rate() -> None:
     links = Links(net, np.random.default_rng(0), np.random.default_rng(1))
     lost = np.concatenate([links.broadcast(i % 10)[2] for i in range(20_000)])
     assert abs(lost.mean() - 0.2) < 0.01
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "complete",
+        "complete latency=uniform:1ms:10ms loss=0.3",
+        "ring latency=exponential:5ms loss=0.5",
+        "complete latency=lognormal:2ms:0.7",
+        "complete latency=lognormal:1s:40",  # a heavy tail: delays clipped to the maximum
+        "complete latency=uniform:1ms:10ms loss=ge:0.1:0.3:0.6",
+    ],
+)
+def test_transmit_one_is_transmit_to_one_receiver(text: str) -> None:
+    # The simulator's direct-message fast path: same values, same counts, and the
+    # generators left in the same state, so every later draw agrees too.
+    net = build(text, 12)
+
+    def links() -> Links:
+        return Links(net, np.random.default_rng(5), np.random.default_rng(6))
+
+    fast, literal = links(), links()
+    pairs = [(i % 12, int(net.neighbours(i % 12)[i % 2])) for i in range(400)]
+    for sender, receiver in pairs:
+        delays, lost = literal.transmit(sender, [receiver])
+        assert fast.transmit_one(sender, receiver) == (int(delays[0]), bool(lost[0]))
+    counts = ("transmissions", "receptions", "losses")
+    assert [getattr(fast, c) for c in counts] == [getattr(literal, c) for c in counts]
+    with pytest.raises(IndexError):
+        fast.transmit_one(0, 0)
