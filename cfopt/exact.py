@@ -1,4 +1,4 @@
-"""The exact optimum: the ST-MR-IA-with-services ILP in cvxpy, solved by HiGHS.
+"""The exact optimum: the ST-MR-IA-with-services ILP, solved by HiGHS.
 
 Two formulations of the same integer program:
 
@@ -9,14 +9,21 @@ Two formulations of the same integer program:
     ``sum_k f[k, s] >= sum_j req[j, s] y[j]``.  For integral ``y`` the flow part is a
     transportation polytope with integral data, so an integral flow with the same
     ``y`` exists; it is recovered by an integral max-flow (networkx) and the slots are
-    handed to concrete robots.
+    handed to concrete robots.  HiGHS is given this model *grouped*
+    (:mod:`cfopt._exact_groups`): services that the same robots have merged into one,
+    and tasks with equal requirements and utility merged into one integer variable
+    ``z[g]`` in ``0..multiplicity[g]`` (the number of them done), as arrays through
+    highspy.  The ungrouped model is also written in cvxpy
+    (:func:`_aggregated_problem`), the readable statement the tests cross-check the
+    grouped one against.
 ``"assignment"`` (the cross-check)
     Binary ``x[i, j, s]`` per robot ``i`` having ``s`` and slot ``(j, s)``, binary
     ``y[j]``: at most one slot per robot, ``sum_i x[i, j, s] >= req[j, s] y[j]``.
+    Written in cvxpy.
 
 Both are built from a handful of sparse matrix constraints (never a Python loop over
-the variables), compiled by cvxpy and handed to HiGHS in separate stages, so that a
-time limit covers the whole call (see :func:`solve_exact`).
+the variables) and handed to HiGHS in separate stages, so that a time limit covers the
+whole call (see :func:`solve_exact`).
 """
 
 from __future__ import annotations
@@ -38,6 +45,15 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from networkx.algorithms.flow import edmonds_karp
 
+from cfopt._exact_groups import (
+    ServiceClasses,
+    TaskGroups,
+    Types,
+    capability_types,
+    service_classes,
+    split_class_flow,
+    task_groups,
+)
 from cfopt.assignment import UNASSIGNED, Assignment
 from cfopt.errors import MissionError, describe
 from cfopt.mission import Mission, require_mission
@@ -68,10 +84,11 @@ _HIGHS_SOLUTION_FEASIBLE = 2
 _TOP_EXPONENT = 20
 #: Seconds past the deadline the caller waits for the solving thread to hand over.
 _GRACE = 0.05
-#: Seconds kept back from HiGHS's time limit for cvxpy's hand-over to HiGHS (which
-#: HiGHS's clock does not see), HiGHS's own overrun of its limit (it checks its clock
-#: only now and then) and reading back and recovering the assignment: a base plus a
-#: share per model variable (measured: about 2 s for a million variables).
+#: Seconds kept back from HiGHS's time limit for the hand-over to HiGHS (cvxpy's, for
+#: the assignment model; HiGHS's clock does not see it), HiGHS's own overrun of its
+#: limit (it checks its clock only now and then) and reading back and recovering the
+#: assignment: a base plus a share per model variable (measured: about 2 s for a
+#: million variables).
 _RESERVE_BASE = 0.02
 _RESERVE_PER_VARIABLE = 2e-6
 
@@ -173,23 +190,25 @@ def solve_exact(
     formulation: Formulation = "aggregated",
     mip_gap: float = 0.0,
 ) -> ExactResult:
-    """The optimal assignment of a mission, by integer programming (HiGHS via cvxpy).
+    """The optimal assignment of a mission, by integer programming (HiGHS).
 
     Parameters
     ----------
     mission : Mission
     time_limit : float, optional
-        Seconds the whole call may take: presolve, model building, cvxpy's
-        compilation, HiGHS and recovery.  The call returns within ``time_limit +
-        TIME_LIMIT_SLACK`` (0.25 s; see the Notes for when it can take longer), apart
-        from the first call in a process, which imports cvxpy (about a second) before
-        its clock starts.  When
-        the time runs out the result has status ``time_limit``, the best incumbent
-        (possibly the empty assignment) and HiGHS's proven dual bound (the total of the
-        tasks presolve kept when HiGHS had none or never ran).  Default: no limit.
+        Seconds the whole call may take: presolve, grouping, model building (and cvxpy's
+        compilation for the assignment model), HiGHS and recovery.  The call returns
+        within ``time_limit + TIME_LIMIT_SLACK`` (0.25 s; see the Notes for when it can
+        take longer), apart from the first call in a process, which imports highspy
+        (about 0.1 s; cvxpy, about a second, for the assignment model) before its clock
+        starts.  When the time runs out the result has status ``time_limit``, the best
+        incumbent (possibly the empty assignment) and HiGHS's proven dual bound (the
+        total of the tasks presolve kept when HiGHS had none or never ran).  Default: no
+        limit.
     formulation : {"aggregated", "assignment"}, default "aggregated"
-        The capability-type model (small: ``m' + |K| S'`` variables) or the per-robot
-        model (``n'`` times the number of slots variables), see the module docstring.
+        The grouped capability-type model (small: at most ``m' + |K| S'`` variables, one
+        per task group and per type-service pair) or the per-robot model (``n'`` times
+        the number of slots variables), see the module docstring.
     mip_gap : float, default 0.0
         HiGHS's relative MIP gap (``mip_rel_gap``); its absolute gap
         (``mip_abs_gap``) is always set to 0.  HiGHS's defaults (1e-4, 1e-6) are not
@@ -220,26 +239,39 @@ def solve_exact(
     having, so the optimum is unchanged.  A mission left empty (no robots or no tasks)
     is solved without calling HiGHS: the empty assignment, proven optimal.
 
-    *Time limit.*  With a ``time_limit`` the model is built, compiled by cvxpy,
-    solved and recovered in a worker thread while the caller waits until 0.05 s past
-    the deadline.  The worker checks the deadline between stages, and HiGHS gets only
-    the time that is left, less a reserve (0.02 s plus 2 s per million variables) for
-    cvxpy's hand-over, HiGHS's own overrun and the recovery.  When the deadline passes
-    before HiGHS can start, or before the worker hands its result over, the result is
-    an honest ``time_limit``: the empty assignment and the total of the kept tasks as
-    the bound.  HiGHS checks its clock only now and then (its presolve of the
-    per-robot model with a million variables overran a 5 s limit by a minute, which
-    is why that model is solved without presolve, which also solves it faster), and
-    it cannot be stopped from outside: an abandoned run goes on in the background
-    until its next clock check.  HiGHS runs one at a time per process (a later call
-    waits for it within its own time limit), and the interpreter's exit waits for a
-    run in progress.  ``TIME_LIMIT_SLACK`` (0.25 s) covers the wait past the deadline
-    and the final checks on an ordinary machine.  It can be exceeded on a heavily
-    loaded machine, and with models of a million variables or more (the per-robot
-    model of a large mission): some steps of cvxpy's compilation and of its hand-over
-    to HiGHS hold Python's global interpreter lock for up to about 0.7 s at that size,
-    and the caller cannot return before such a step ends (its own worker's, or one of
-    a run an earlier call abandoned).
+    *Grouping.*  The aggregated model merges services that exactly the same robots
+    have, and tasks with equal (merged) requirements and equal utility, into one
+    integer variable per group (see the module docstring); these are reformulations,
+    not relaxations: every assignment's utility is a feasible objective value of the
+    grouped model and back, so its optimum and its bound are the ungrouped model's.
+    A group doing ``z`` of its tasks does its lowest-indexed ``z``.  On the seed's
+    family at 100,000 robots and 50,000 tasks this leaves 7,000 to 18,000 task
+    columns (one per distinct requirement vector and utility in 1..50), or a few
+    hundred when every robot has every service; HiGHS would otherwise spend most of
+    its time finding these duplicates itself.
+
+    *Time limit.*  With a ``time_limit`` the model is built (and compiled by cvxpy for
+    the assignment model), solved and recovered in a worker thread while the caller
+    waits until 0.05 s past the deadline.  The worker checks the deadline between
+    stages, and HiGHS gets only the time that is left, less a reserve (0.02 s plus 2 s
+    per million variables) for the hand-over to HiGHS, HiGHS's own overrun and the
+    recovery.  When the deadline passes before HiGHS can start, or before the worker
+    hands its result over, the result is an honest ``time_limit``: the empty assignment
+    and the total of the kept tasks as the bound.  HiGHS checks its clock only now and
+    then (its presolve of the per-robot model with a million variables overran a 5 s
+    limit by a minute, which is why that model is solved without presolve, which also
+    solves it faster; its presolve of the grouped model of a 100,000-robot mission,
+    a few seconds, is not interrupted either: a shorter limit there gives the empty
+    ``time_limit`` result), and it cannot be stopped from outside: an abandoned run
+    goes on in the background until its next clock check.  HiGHS runs one at a time per process
+    (a later call waits for it within its own time limit), and the interpreter's exit
+    waits for a run in progress.  ``TIME_LIMIT_SLACK`` (0.25 s) covers the wait past the
+    deadline and the final checks on an ordinary machine.  It can be exceeded on a
+    heavily loaded machine, and with models of a million variables or more (the
+    per-robot model of a large mission): some steps of cvxpy's compilation and of its
+    hand-over to HiGHS hold Python's global interpreter lock for up to about 0.7 s at
+    that size, and the caller cannot return before such a step ends (its own worker's,
+    or one of a run an earlier call abandoned).
 
     *Scaling.*  HiGHS treats costs from 1e20 up as infinite and uses absolute
     tolerances of about 1e-6, so it is given the utilities times ``2**k``, the power of
@@ -257,18 +289,21 @@ def solve_exact(
     bound is HiGHS's ``mip_dual_bound`` (clamped to ``[utility, total of the kept
     tasks]``; the latter when HiGHS has no bound yet).
 
-    *Recovery.*  The aggregated model's integral ``y`` is turned into robots by an
-    integral max-flow source -> type -> service -> sink (sink capacities: the chosen
-    tasks' demands), then each type's robots (in index order) take their services'
-    slots and each service's robots fill the chosen tasks' slots in task order.  The
+    *Recovery.*  The aggregated model's integral ``z`` (rounded to the nearest
+    integer: HiGHS holds it to within 1e-6) chooses the tasks; they are turned into
+    robots by an integral max-flow source -> type -> service class -> sink (sink
+    capacities: the chosen tasks' demands, warm-started from HiGHS's flow), each
+    class's flow is split among its services by the north-west corner rule, then
+    each type's robots (in index order) take their services' slots and each
+    service's robots fill the chosen tasks' slots in task order.  The
     assignment model's robots in slots of tasks it did not choose, and robots beyond a
     slot's requirement (the lowest indices are kept), are unassigned.
 
-    Complexity: building the aggregated model is O(n S + m S) with numpy; HiGHS's
-    branch and bound is exponential in the worst case (the problem is NP-hard), fast
-    in practice on the seed's family; recovery is one max-flow on ``|K| + S'`` nodes
-    plus O(n + m S).  The assignment model has O(n m S) variables, and cvxpy's
-    compilation costs about a microsecond per variable.
+    Complexity: grouping and building the aggregated model is O(n S + m S log m) with
+    numpy; HiGHS's branch and bound is exponential in the worst case (the problem is
+    NP-hard), fast in practice on the seed's family; recovery is one max-flow on ``|K| +
+    S'`` nodes plus O(n S + m S).  The assignment model has O(n m S) variables, and
+    cvxpy's compilation costs about a microsecond per variable.
 
     Examples
     --------
@@ -290,11 +325,15 @@ def solve_exact(
     >>> cfopt.solve_exact(huge).utility
     1e+308
     """
-    import cvxpy  # noqa: F401  (a one-time import of about a second: not the solve's time)
-
     start = time.perf_counter()
     require_mission(mission)
     time_limit, formulation, mip_gap = _check_options(time_limit, formulation, mip_gap)
+    # One-time imports (cvxpy: about a second; highspy: about 0.1 s), not the solve's time.
+    if formulation == "assignment":
+        import cvxpy  # noqa: F401
+    else:
+        import highspy  # noqa: F401
+    start = time.perf_counter()
     clock = _Clock(None if time_limit is None else start + time_limit)
     reduced = _presolve(mission)
     if reduced.n_tasks == 0 or reduced.n_robots == 0:
@@ -680,28 +719,213 @@ def _checked_objective(
 
 
 # --------------------------------------------------------------- aggregated model
-@dataclass(frozen=True, eq=False)
-class _Types:
-    """Robots grouped by capability type, and the (type, service) pairs of the flow."""
+#: HiGHS's model statuses (``HighsModelStatus`` names) to ours, as cvxpy's HiGHS
+#: interface maps them (``kOptimal`` -> optimal, the limits -> a time limit, the only
+#: limit we set); every other status, and a status missing here, is an error.
+_HIGHS_STATUS_TABLE: Mapping[str, ExactStatus] = {
+    "kOptimal": ExactStatus.OPTIMAL,
+    "kTimeLimit": ExactStatus.TIME_LIMIT,
+    "kIterationLimit": ExactStatus.TIME_LIMIT,
+    "kSolutionLimit": ExactStatus.TIME_LIMIT,
+    "kObjectiveBound": ExactStatus.TIME_LIMIT,
+    "kObjectiveTarget": ExactStatus.TIME_LIMIT,
+}
 
-    which: npt.NDArray[np.intp]  # reduced robot -> its type
-    counts: npt.NDArray[np.int64]  # type -> number of robots
-    pair_kind: npt.NDArray[np.intp]  # one flow variable per (type, service) pair,
-    pair_service: npt.NDArray[np.intp]  # sorted by (type, service)
 
-
-def _types(capabilities: npt.NDArray[np.bool_]) -> _Types:
+def _types(capabilities: npt.NDArray[np.bool_]) -> Types:
     """The capability types (distinct rows of ``capabilities``) and their pairs."""
-    kinds, which = np.unique(capabilities, axis=0, return_inverse=True)
-    which = which.reshape(-1)
-    pair_kind, pair_service = np.nonzero(kinds)
-    return _Types(which, np.bincount(which, minlength=len(kinds)), pair_kind, pair_service)
+    return capability_types(capabilities)
+
+
+@dataclass(frozen=True, eq=False)
+class _Grouped:
+    """The aggregated model's data after the exact groupings of :mod:`cfopt._exact_groups`.
+
+    Columns of the model: one integer ``z[g]`` per task group (tasks done,
+    ``0..multiplicity[g]``), then one continuous ``f[q]`` per (type, service class)
+    pair ``q``.
+    """
+
+    types: Types
+    classes: ServiceClasses
+    groups: TaskGroups
+    requirements: npt.NDArray[np.int64]  # (G, C): each group's requirements per class
+    utilities: npt.NDArray[np.float64]  # (G,)
+    pair_kind: npt.NDArray[np.intp]  # (Q,): the (type, class) pairs, sorted
+    pair_class: npt.NDArray[np.intp]
+
+    @property
+    def n_groups(self) -> int:
+        return len(self.utilities)
+
+
+def _group(reduced: _Reduced) -> _Grouped:
+    """Group robots into types, services into classes and tasks into groups."""
+    types = _types(reduced.capabilities)
+    classes = service_classes(types.kinds)
+    merged = classes.merge(reduced.requirements)
+    groups = task_groups(merged, reduced.utilities)
+    pair_kind, pair_class = np.nonzero(types.kinds[:, classes.representative])
+    return _Grouped(
+        types=types,
+        classes=classes,
+        groups=groups,
+        requirements=merged[groups.first],
+        utilities=reduced.utilities[groups.first],
+        pair_kind=pair_kind.astype(np.intp),
+        pair_class=pair_class.astype(np.intp),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Model:
+    """A MIP ``min cost @ x`` s.t. ``row_lower <= A x <= row_upper``, bounds, integrality."""
+
+    cost: npt.NDArray[np.float64]
+    col_lower: npt.NDArray[np.float64]
+    col_upper: npt.NDArray[np.float64]
+    integer: npt.NDArray[np.bool_]
+    matrix: sp.csc_array
+    row_lower: npt.NDArray[np.float64]
+    row_upper: npt.NDArray[np.float64]
+
+    @property
+    def n_columns(self) -> int:
+        return len(self.cost)
+
+
+def _grouped_model(grouped: _Grouped, shift: int) -> _Model:
+    """The grouped capability-type ILP as arrays for HiGHS.
+
+    Minimise ``-sum_g (u[g] 2**shift) z[g]`` subject to, per type ``k``,
+    ``sum_{q of k} f[q] <= cnt[k]`` and, per class ``c``,
+    ``sum_{q into c} f[q] - sum_g R[g, c] z[g] >= 0``, with integer
+    ``0 <= z[g] <= multiplicity[g]`` and ``f >= 0``.
+    """
+    n_groups, n_pairs = grouped.n_groups, len(grouped.pair_kind)
+    n_kinds, n_classes = len(grouped.types.counts), grouped.classes.n_classes
+    need = sp.coo_array(grouped.requirements.T.astype(float))  # class x group
+    rows = np.concatenate((grouped.pair_kind, n_kinds + grouped.pair_class, n_kinds + need.row))
+    cols = np.concatenate((n_groups + np.arange(n_pairs), n_groups + np.arange(n_pairs), need.col))
+    values = np.concatenate((np.ones(2 * n_pairs), -need.data))
+    matrix = sp.csc_array((values, (rows, cols)), shape=(n_kinds + n_classes, n_groups + n_pairs))
+    return _Model(
+        cost=np.concatenate((-_scaled(grouped.utilities, shift), np.zeros(n_pairs))),
+        col_lower=np.zeros(n_groups + n_pairs),
+        col_upper=np.concatenate(
+            (grouped.groups.multiplicity.astype(float), np.full(n_pairs, math.inf))
+        ),
+        integer=np.arange(n_groups + n_pairs) < n_groups,
+        matrix=matrix,
+        row_lower=np.concatenate((np.full(n_kinds, -math.inf), np.zeros(n_classes))),
+        row_upper=np.concatenate(
+            (grouped.types.counts.astype(float), np.full(n_classes, math.inf))
+        ),
+    )
+
+
+def _highs_direct(
+    model: _Model, *, clock: _Clock, mip_gap: float, shift: int
+) -> tuple[_Run, npt.NDArray[np.float64] | None]:
+    """Solve ``model`` with highspy in the time left: HiGHS's report and its point.
+
+    The same contract as :func:`_highs` (the model minimises ``-utility * 2**shift``;
+    ``mip_dual_bound`` is minus our bound, scaled), without cvxpy: the arrays go to
+    HiGHS as they are.  The point is ``None`` without an incumbent.
+    """
+    import highspy
+
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = model.n_columns, len(model.row_lower)
+    lp.col_cost_ = model.cost
+    lp.col_lower_, lp.col_upper_ = model.col_lower, model.col_upper
+    lp.row_lower_, lp.row_upper_ = model.row_lower, model.row_upper
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = model.matrix.indptr
+    lp.a_matrix_.index_ = model.matrix.indices
+    lp.a_matrix_.value_ = model.matrix.data
+    kinds = (highspy.HighsVarType.kContinuous, highspy.HighsVarType.kInteger)
+    lp.integrality_ = [kinds[flag] for flag in model.integer.tolist()]
+    if highs.passModel(lp) == highspy.HighsStatus.kError:
+        return _HIGHS_FAILED, None
+    for name, value in (("mip_rel_gap", mip_gap), ("mip_abs_gap", 0.0)):
+        highs.setOptionValue(name, value)
+    clock.check()
+    reserve = _RESERVE_BASE + _RESERVE_PER_VARIABLE * model.n_columns
+    with _highs_turn(clock, reserve) as seconds:
+        if seconds is not None:
+            highs.setOptionValue("time_limit", seconds)
+        if highs.run() == highspy.HighsStatus.kError:
+            return _HIGHS_FAILED, None
+    status = _HIGHS_STATUS_TABLE.get(highs.getModelStatus().name, ExactStatus.ERROR)
+    if status is ExactStatus.ERROR:
+        return _HIGHS_FAILED, None
+    info = highs.getInfo()
+    has_incumbent = int(info.primal_solution_status) == _HIGHS_SOLUTION_FEASIBLE
+    if status is ExactStatus.OPTIMAL and not has_incumbent:
+        return _HIGHS_FAILED, None  # "optimal" without a point
+    scaled = -float(info.objective_function_value) if has_incumbent else 0.0
+    dual = float(info.mip_dual_bound)
+    bound = _unscale(-dual, shift) if math.isfinite(dual) else math.inf
+    point = np.asarray(highs.getSolution().col_value, dtype=float) if has_incumbent else None
+    return _Run(status, has_incumbent, scaled, bound), point
+
+
+def _aggregated_core(reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """Build, solve and recover the grouped capability-type model (highspy, no cvxpy)."""
+    grouped = _group(reduced)
+    shift = _shift(reduced.utilities)
+    model = _grouped_model(grouped, shift)
+    clock.check()
+    run, point = _highs_direct(model, clock=clock, mip_gap=mip_gap, shift=shift)
+    if run.status is ExactStatus.ERROR:
+        return _FAILED
+    n_groups = grouped.n_groups
+    if point is None:
+        done = np.zeros(n_groups, dtype=np.int64)
+    else:  # integral within HiGHS's tolerance: the nearest integer, inside the bounds
+        done = np.clip(np.rint(point[:n_groups]), 0, grouped.groups.multiplicity)
+        done = done.astype(np.int64)
+    chosen = grouped.groups.chosen(done)
+    objective = _checked_objective(reduced, chosen, run, shift)
+    reqs = reduced.requirements
+    demand = reqs[chosen].sum(axis=0)
+    class_flow = _integral_flow(
+        grouped.types.counts,
+        grouped.classes.merge(demand.reshape(1, -1))[0],
+        grouped.pair_kind,
+        grouped.pair_class,
+        None if point is None else point[n_groups:],
+    )
+    try:
+        pair_flow = split_class_flow(
+            grouped.types,
+            grouped.classes,
+            grouped.pair_kind,
+            grouped.pair_class,
+            class_flow,
+            demand,
+        )
+    except ValueError as exc:
+        raise _InternalError(str(exc)) from exc
+    types = grouped.types
+    task, service = _hand_out(
+        reqs, chosen, types.which, types.counts, types.pair_kind, types.pair_service, pair_flow
+    )
+    return _Outcome(run.status, task, objective, run.bound, service)
 
 
 def _aggregated_problem(
-    reduced: _Reduced, types: _Types, shift: int
+    reduced: _Reduced, types: Types, shift: int
 ) -> tuple[cp.Problem, cp.Variable, cp.Variable]:
-    """The capability-type model: (problem, ``y`` per task, ``f`` per pair)."""
+    """The capability-type model in cvxpy, one binary per task, nothing grouped but the
+    robots: (problem, ``y`` per task, ``f`` per (type, service) pair).
+
+    The readable statement of the ILP that :func:`_grouped_model` reformulates; the
+    tests solve both and compare (see :func:`_aggregated_core_cvxpy`).
+    """
     import cvxpy as cp
 
     m, n_services = reduced.requirements.shape
@@ -719,8 +943,9 @@ def _aggregated_problem(
     return problem, y, f
 
 
-def _aggregated_core(reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
-    """Build, solve and recover the capability-type model, checking ``clock`` between."""
+def _aggregated_core_cvxpy(reduced: _Reduced, clock: _Clock, mip_gap: float) -> _Outcome:
+    """The ungrouped capability-type model through cvxpy (the cross-check of
+    :func:`_aggregated_core`; not reachable from :func:`solve_exact`)."""
     types = _types(reduced.capabilities)
     shift = _shift(reduced.utilities)
     problem, y, f = _aggregated_problem(reduced, types, shift)
