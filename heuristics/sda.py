@@ -239,6 +239,7 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
     needmask = reqs > 0  # m x S
     caps64 = caps.astype(np.int64)
     need64 = needmask.astype(np.int64)
+    touched = _Touched(needmask)
     rows = finder.reach.copy()  # unsold robots having one of the task's services
     # the literal work of a round, sum rows[j] k[j], in int64 unless that could overflow
     k_arr = np.array(k, dtype=np.int64 if n * sum(k) < 2**62 else object)
@@ -405,7 +406,7 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             for r, s in sorted(zip(b.robots.tolist(), b.services.tolist(), strict=True)):
                 out.moves.append((it, r, j, s))
             A -= need64[j]
-            rows -= ((caps64[b.robots] @ need64.T) > 0).sum(axis=0)
+            rows -= touched(caps[b.robots])
             for s in np.flatnonzero(caps[b.robots].any(axis=0)).tolist():
                 pools[s] = pools[s][~sold_round[pools[s]]]
         # sold notices to the tasks still unstaffed
@@ -436,3 +437,33 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
 def _bid_messages(out: _Outcome, finder: BundleFinder, j: int) -> None:
     counts = finder.counts[j]
     out.direct(len(counts), len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts))
+
+
+class _Touched:
+    """Per task, how many robots of a set have at least one service the task needs.
+
+    ``touched(caps_rows)`` equals ``((caps_rows @ needmask.T) > 0).sum(axis=0)`` (the
+    literal count), computed per capability type: the distinct rows of ``caps_rows`` with
+    their multiplicities, each tested against every task at once.  With at most 62
+    services a type and a task's needs are bit codes and "shares a service" is one AND,
+    so a call costs O(k S + U m) time and O(U m) memory for ``U <= k`` types, instead of
+    the O(k S m) product; otherwise the ``U x m`` product decides.
+    """
+
+    def __init__(self, needmask: npt.NDArray[np.bool_]) -> None:
+        self.need = needmask  # m x S
+        n_services = needmask.shape[1]
+        self.bits = (
+            (np.int64(1) << np.arange(n_services, dtype=np.int64)) if n_services <= 62 else None
+        )
+        self.codes = None if self.bits is None else needmask.astype(np.int64) @ self.bits
+
+    def __call__(self, caps_rows: npt.NDArray[np.bool_]) -> npt.NDArray[np.int64]:
+        """The count per task (int64, length m) for the robots ``caps_rows`` (k x S)."""
+        if self.bits is None:
+            kinds, counts = np.unique(caps_rows, axis=0, return_counts=True)
+            shares = (kinds.astype(np.int64) @ self.need.T.astype(np.int64)) > 0
+        else:
+            kinds, counts = np.unique(caps_rows.astype(np.int64) @ self.bits, return_counts=True)
+            shares = (kinds[:, None] & self.codes[None, :]) != 0  # U x m
+        return counts.astype(np.int64) @ shares

@@ -62,8 +62,11 @@ loaded ``a`` take ``b``'s slot — the exchange Pair-GRAPE-S makes — so the no
 
 The checker groups robots into *classes* (current slot, service set): robots in a class
 are interchangeable.  For each class it keeps the three best targets (exchanging at
-most two excluded slots, ``p_b`` and the partner's target, always leaves one of them),
-and decides cases 2-4 for one class against all classes at once with numpy.
+most two excluded slots, ``p_b`` and the partner's target, always leaves one of them).
+Every target is one of the per-service best slots ``T`` (``|T| <= 4 S``), and loads
+are totally ordered, so each of cases 2-4 is answered for all classes at once — the
+lowest partner class per class — by look-ups keyed on ``T`` and on exact load ranks
+(prefix minima over rank-sorted classes), never by comparing every pair of classes.
 """
 
 from __future__ import annotations
@@ -300,8 +303,10 @@ def pairwise_violations(
     Notes
     -----
     Exact.  Robots are grouped into ``C <= n`` classes by (current slot, service set);
-    one class is checked against all classes with O(S) numpy operations, so the time
-    is O(C^2 + n S + m S log(m S)) — never all robot pairs times all slot pairs.
+    each case of a joint deviation is answered for all classes at once by indexed
+    look-ups (module notes), so the time is O(n S + (S + |T|) C log C + |T|^2 G +
+    m S log(m S)), ``|T| <= 4 S`` the per-service best slots and ``G <= C`` the
+    classes' distinct target signatures — never all pairs of robots or of classes.
 
     Examples
     --------
@@ -322,6 +327,32 @@ def pairwise_violations(
     >>> [v.kind for v in pairwise_violations(m, a, mode="pareto")]  # uncapped: r0 can crowd t0
     ['individual', 'joint', 'joint']
     """
+    return _pairwise(mission, assignment, mode, capped, individual, _FastJoint)
+
+
+def _pairwise_violations_reference(
+    mission: Mission,
+    assignment: Assignment,
+    *,
+    mode: Mode = "strict",
+    capped: bool = False,
+    individual: bool = True,
+) -> list[PairwiseViolation]:
+    """:func:`pairwise_violations` by the original O(C^2) class-against-class loop.
+
+    Kept as the reference the indexed decision is tested against (same list, same order).
+    """
+    return _pairwise(mission, assignment, mode, capped, individual, _Joint)
+
+
+def _pairwise(
+    mission: Mission,
+    assignment: Assignment,
+    mode: Mode,
+    capped: bool,
+    individual: bool,
+    joint: type[_Joint],
+) -> list[PairwiseViolation]:
     _check_mode(mode)
     state = _State(mission, assignment, capped)
     out: list[PairwiseViolation] = []
@@ -330,7 +361,7 @@ def pairwise_violations(
         for i, q in zip(robots.tolist(), targets.tolist(), strict=True):
             v = state.nash_violation(i, q)
             out.append(PairwiseViolation(robots=(i,), moves=(v,)))
-    out.extend(_Joint(state, mode).violations())
+    out.extend(joint(state, mode).violations())
     return out
 
 
@@ -339,19 +370,34 @@ def is_pairwise_stable(
 ) -> bool:
     """Whether no one robot and no two robots can deviate profitably.
 
-    Stops at the first violation found.  See :func:`pairwise_violations`.
+    Answers ``False`` as soon as one robot can deviate alone; otherwise decides the joint
+    deviations of all classes at once, without building the violations.  See
+    :func:`pairwise_violations`.
 
     >>> m = Mission.from_arrays([[1, 0], [1, 1], [0, 1]], [[1, 0], [0, 2]], [5.0, 5.0])
     >>> a = Assignment(task=[-1, 0, 1], service=[-1, 0, 1])
     >>> is_pairwise_stable(m, a, capped=True), is_pairwise_stable(m, a, mode="pareto", capped=True)
     (True, False)
     """
+    return _stable(mission, assignment, mode, capped, _FastJoint)
+
+
+def _is_pairwise_stable_reference(
+    mission: Mission, assignment: Assignment, *, mode: Mode = "strict", capped: bool = False
+) -> bool:
+    """:func:`is_pairwise_stable` by the original O(C^2) loop (the tests' reference)."""
+    return _stable(mission, assignment, mode, capped, _Joint)
+
+
+def _stable(
+    mission: Mission, assignment: Assignment, mode: Mode, capped: bool, joint: type[_Joint]
+) -> bool:
     _check_mode(mode)
     state = _State(mission, assignment, capped)
     robots, _ = state.nash()
     if robots.size:
         return False
-    return not _Joint(state, mode).any()
+    return not joint(state, mode).any()
 
 
 def _check_mode(mode: object) -> None:
@@ -466,7 +512,11 @@ def _le(an, ad, bn, bd):
 
 
 class _Joint:
-    """The joint (two-robot) deviations, decided class against class."""
+    """The joint (two-robot) deviations, decided class against class.
+
+    The O(C^2) reference; the public functions use :class:`_FastJoint`, which shares
+    everything but the decision of which class pairs have a violation.
+    """
 
     def __init__(self, state: _State, mode: str) -> None:
         self.st = st = state
@@ -571,9 +621,12 @@ class _Joint:
     def any(self) -> bool:
         return any(self._compatible(A).any() for A in range(self.C))
 
-    def violations(self) -> list[PairwiseViolation]:
-        if self.C == 0:
-            return []
+    def partners(self) -> tuple[_IntArray, _IntArray, npt.NDArray[np.bool_]]:
+        """Per class ``A``: the first robot of the lowest other class with a joint violation
+        with ``A`` and that class (``-1``: none), and whether two robots of ``A`` have one.
+
+        The reference: one :meth:`_compatible` per class, O(C^2).
+        """
         partner_first = np.full(self.C, _NONE, dtype=np.int64)  # best other class's first
         partner_class = np.full(self.C, _NONE, dtype=np.int64)
         own = np.zeros(self.C, dtype=bool)
@@ -585,6 +638,12 @@ class _Joint:
             if cls.size:
                 k = cls[np.argmin(self.first[cls])]
                 partner_first[A], partner_class[A] = self.first[k], k
+        return partner_first, partner_class, own
+
+    def violations(self) -> list[PairwiseViolation]:
+        if self.C == 0:
+            return []
+        partner_first, partner_class, own = self.partners()
         out: list[PairwiseViolation] = []
         cache: dict[tuple[int, int], tuple[int, int]] = {}
         for a in range(self.st.pos.size):
@@ -663,3 +722,418 @@ class _Joint:
             raise RuntimeError(f"internal error: classes {A} and {B} have no joint deviation")
         best = min(cands)
         return best[2], best[3]
+
+
+# ------------------------------------------------------- joint deviations, indexed
+class _FastJoint(_Joint):
+    """The same relation as :class:`_Joint`, decided without comparing every class pair.
+
+    ``ok(A, B)`` (some ``a`` in ``A`` and ``b`` in ``B``, ``a != b``, have a joint
+    violation) is exactly :meth:`_Joint._compatible`'s test.  Each of its four cases is
+    answered for all classes at once, as *the lowest first robot of a class* ``B != A``
+    *satisfying it*, with lookups that only exploit where the case's conditions can
+    differ between classes:
+
+    - every target (a slot in some ``t``) lies in the set ``T`` of per-service best
+      slots, ``|T| <= 4 S``; so a class's slot matters to the target conditions only
+      when it lies in ``T``, and the queries of the target cases number O(|T|^2);
+    - loads are compared through exact dense ranks, so "``b``'s load below ``a``'s" is
+      a prefix of a rank-sorted list, answered by prefix minima and binary search;
+    - "``B != A``" is kept by remembering the two lowest classes of every query.
+
+    Time O((S + |T|) C log C + |T|^2 G), ``G <= C`` the distinct target signatures;
+    memory O(C S).
+    """
+
+    def __init__(self, state: _State, mode: str) -> None:
+        super().__init__(state, mode)
+        self.big = state.pos.size  # stands for "no class": above every robot index
+        if self.C == 0:
+            return
+        self.rank = _load_ranks(self.vn, self.vd)
+        self.in_T = np.zeros(state.n_slots + 1, dtype=bool)  # [-1]: unassigned, not in T
+        self.in_T[np.unique(self.t[self.t >= 0])] = True
+
+    def partners(self) -> tuple[_IntArray, _IntArray, npt.NDArray[np.bool_]]:
+        """As :meth:`_Joint.partners`, in O((S + |T|) C log C + |T|^2 G)."""
+        everyone = np.arange(self.C)
+        own = self._pair_ok(everyone, everyone) & (self.second >= 0)
+        big = self.big
+        best = np.minimum.reduce(
+            [self._independent(), self._same_new_slot(), self._a_takes(), self._b_takes()]
+        )
+        found = best < big
+        partner_first = np.where(found, best, _NONE)
+        partner_class = np.where(found, self.robot_class[np.where(found, best, 0)], _NONE)
+        return partner_first, partner_class, own
+
+    def any(self) -> bool:
+        if self.C == 0:
+            return False
+        partner_first, _, own = self.partners()
+        return bool(own.any() or (partner_first >= 0).any())
+
+    # --------------------------------------------------------------- literal pairs
+    def _pair_ok(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
+        """``_compatible(A[k])[B[k]]`` for every ``k``, without the ``a != b`` rule."""
+        return (
+            self._pair_independent(A, B)
+            | self._pair_same_new_slot(A, B)
+            | self._pair_a_takes(A, B)
+            | self._pair_b_takes(A, B)
+        )
+
+    def _pair_independent(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
+        """Case 4 of :meth:`_Joint._compatible` for the pairs ``(A[k], B[k])``."""
+        pA, pB, tA, sA, tB, sB = self._sides(A, B)
+        ok = np.zeros(A.size, dtype=bool)
+        for i in range(_TOP):
+            qa = tA[:, i]
+            for j in range(_TOP):
+                qb = tB[:, j]
+                good = (qa >= 0) & (pB != qa) & (qb >= 0) & (qb != pA) & (qb != qa)
+                ok |= good & ((sA[:, i] & sB[:, j]) if self.strict else (sA[:, i] | sB[:, j]))
+        return ok
+
+    def _pair_same_new_slot(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
+        """Case 3 of :meth:`_Joint._compatible` for the pairs ``(A[k], B[k])``."""
+        st = self.st
+        _, pB, tA, _, _, _ = self._sides(A, B)
+        ok = np.zeros(A.size, dtype=bool)
+        for i in range(_TOP):
+            q = tA[:, i]
+            qs = np.where(q >= 0, q, 0)
+            n2, d2 = st.cnt[qs] + 2, st.req[qs]
+            a_lt, a_le = _lt(n2, d2, self.vn[A], self.vd[A]), _le(n2, d2, self.vn[A], self.vd[A])
+            b_lt, b_le = _lt(n2, d2, self.vn[B], self.vd[B]), _le(n2, d2, self.vn[B], self.vd[B])
+            good = (q >= 0) & st.ok2[qs] & a_le & (pB != q) & self.K[B, st.svc[qs]] & b_le
+            ok |= good & ((a_lt & b_lt) if self.strict else (a_lt | b_lt))
+        return ok
+
+    def _pair_a_takes(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
+        """Case 2a of :meth:`_Joint._compatible`: ``a`` takes ``p_B``, ``b`` moves on."""
+        st = self.st
+        pA, pB, _, _, tB, sB = self._sides(A, B)
+        lt = _lt(self.vn[B], self.vd[B], self.vn[A], self.vd[A])
+        le = _le(self.vn[B], self.vd[B], self.vn[A], self.vd[A])
+        pBs = np.where(pB >= 0, pB, 0)
+        bt_first = tB[:, 0] != pA
+        bt = np.where(bt_first, tB[:, 0], tB[:, 1])
+        bst = np.where(bt_first, sB[:, 0], sB[:, 1])
+        good = (pB >= 0) & (pB != pA) & self.K[A, st.svc[pBs]] & st.ok0[pBs] & (bt >= 0)
+        return good & ((lt & bst) if self.strict else (le & (lt | bst)))
+
+    def _pair_b_takes(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
+        """Case 2b of :meth:`_Joint._compatible`: ``b`` takes ``p_A``, ``a`` moves on."""
+        st = self.st
+        pA, pB, tA, sA, _, _ = self._sides(A, B)
+        lt = _lt(self.vn[A], self.vd[A], self.vn[B], self.vd[B])
+        le = _le(self.vn[A], self.vd[A], self.vn[B], self.vd[B])
+        pAs = np.where(pA >= 0, pA, 0)
+        at_first = tA[:, 0] != pB
+        at = np.where(at_first, tA[:, 0], tA[:, 1])
+        ast = np.where(at_first, sA[:, 0], sA[:, 1])
+        good = (pA >= 0) & st.ok0[pAs] & (pB != pA) & self.K[B, st.svc[pAs]] & (at >= 0)
+        return good & ((lt & ast) if self.strict else (le & (lt | ast)))
+
+    def _sides(self, A: _IntArray, B: _IntArray) -> tuple[_IntArray, ...]:
+        """Slots, targets and strict flags of both sides: ``pA, pB, tA, sA, tB, sB``."""
+        return self.p[A], self.p[B], self.t[A], self.tstrict[A], self.t[B], self.tstrict[B]
+
+    def _other_than_self(self, owner: _IntArray, lowest: _IntArray, second: _IntArray) -> _IntArray:
+        """Per entry: ``lowest`` unless that is the owner class itself, then ``second``."""
+        return np.where(lowest == self.first[owner], second, lowest)
+
+    # -------------------------------------------------------- case 4, independent
+    def _independent(self) -> _IntArray:
+        """Lowest first robot of a class ``B != A`` with an independent-moves violation.
+
+        ``B`` qualifies for ``a``'s target ``q_a`` when ``p_B != q_a`` and ``B`` has a
+        target outside ``{p_A, q_a}`` that is strict (strict mode, or ``q_a`` only a tie)
+        or any (pareto mode with ``q_a`` strict).  ``p_A`` and ``p_B`` matter only inside
+        ``T``, so classes reduce to signatures (slot in ``T`` or not, targets, flags).
+        """
+        C, big = self.C, self.big
+        here = np.where(self.in_T[self.p], self.p, -2)  # -2: not a target of anyone
+        sig = np.concatenate([here[:, None], self.t, self.tstrict.astype(np.int64)], axis=1)
+        group, at = _distinct_rows(sig)
+        rows = sig[at]
+        low1, low2 = _grouped_two_lowest(group, self.first, at.size, big)
+        g_here, g_t, g_s = rows[:, 0], rows[:, 1 : 1 + _TOP], rows[:, 1 + _TOP :].astype(bool)
+        # one query per (q_a, p_A in T or -2, any-target) occurring
+        qa = self.t.reshape(-1)
+        owner = np.repeat(np.arange(C), _TOP)
+        weak_ok = np.zeros(qa.size, dtype=bool) if self.strict else self.tstrict.reshape(-1)
+        use = (qa >= 0) & (self.tstrict.reshape(-1) | (not self.strict))
+        qa, owner, weak_ok = qa[use], owner[use], weak_ok[use]
+        asked = np.stack([qa, here[owner], weak_ok.astype(np.int64)], axis=1)
+        which, at = _distinct_rows(asked)
+        ans1 = np.full(at.size, big, dtype=np.int64)
+        ans2 = ans1.copy()
+        for k, (q, pa, weak) in enumerate(asked[at].tolist()):
+            outside = (g_t >= 0) & (g_t != pa) & (g_t != q) & (g_s | bool(weak))
+            ans1[k], ans2[k] = _two_lowest_of_groups(
+                (g_here != q) & outside.any(axis=1), low1, low2, big
+            )
+        value = self._other_than_self(owner, ans1[which], ans2[which])
+        return _min_per(owner, value, C, big)
+
+    # -------------------------------------------------------- case 3, same new slot
+    def _same_new_slot(self) -> _IntArray:
+        """Lowest first robot of a class ``B != A`` joining ``a`` on one of ``a``'s targets.
+
+        For ``q`` a target of ``a`` with room for two and ``(c_q + 2) / req_q`` no more than
+        ``a``'s load, ``B`` qualifies when ``p_B != q``, it has ``q``'s service, and its
+        load exceeds (or, when the mode lets ``a``'s gain carry it, reaches) that value.
+        """
+        st, C, big = self.st, self.C, self.big
+        q = self.t.reshape(-1)
+        owner = np.repeat(np.arange(C), _TOP)
+        qs = np.where(q >= 0, q, 0)
+        n2, d2 = st.cnt[qs] + 2, st.req[qs]
+        a_lt = _lt(n2, d2, self.vn[owner], self.vd[owner])
+        a_le = _le(n2, d2, self.vn[owner], self.vd[owner])
+        use = (q >= 0) & st.ok2[qs] & (a_lt if self.strict else a_le)
+        le = a_lt & (not self.strict)  # a strictly better: b's load may equal the new one
+        q, owner, le = q[use], owner[use], le[use]
+        asked = np.stack([q, le.astype(np.int64)], axis=1)
+        which, at = _distinct_rows(asked)
+        ans1 = np.full(at.size, big, dtype=np.int64)
+        ans2 = ans1.copy()
+        for k, (slot, le) in enumerate(asked[at].tolist()):
+            n2, d2 = int(st.cnt[slot]) + 2, int(st.req[slot])
+            above = (_le if le else _lt)(n2, d2, self.vn, self.vd)
+            mask = (self.p != slot) & self.K[:, st.svc[slot]] & above
+            ans1[k], ans2[k] = _two_lowest(self.first[mask], big)
+        value = self._other_than_self(owner, ans1[which], ans2[which])
+        return _min_per(owner, value, C, big)
+
+    # ------------------------------------------------------ case 2a, a takes p_B
+    def _a_takes(self) -> _IntArray:
+        """Lowest first robot of a class ``B`` whose slot ``a`` takes while ``b`` moves on.
+
+        ``B`` sits on a slot of a service ``a`` has, other than ``p_A``, that can take
+        ``a``; ``b`` goes to its first target other than ``p_A``.  Strict: ``b``'s load is
+        below ``a``'s and that target strict; pareto: ``b``'s load is below ``a``'s (any
+        target), or equal with a strict target.  ``b``'s target depends on ``p_A`` only
+        when ``p_A`` is in ``T``: those slots are decided one by one, the others by
+        service with rank-sorted prefix minima.
+        """
+        st, C, big = self.st, self.C, self.big
+        best = np.full(C, big, dtype=np.int64)
+        on = self.p >= 0
+        home = np.where(on, self.p, 0)
+        seat = on & st.ok0[home]  # B's slot can take a
+        svc_B = st.svc[home]
+        general = ~self.in_T[self.p]
+        below = seat & (self.t[:, 0] >= 0)  # load below a's: any target does
+        strict_t = seat & self.tstrict[:, 0]
+        if self.strict:
+            below = strict_t
+        for s in range(st.S):
+            ask = np.flatnonzero(general & self.K[:, s])
+            if ask.size == 0:
+                continue
+            items = np.flatnonzero(below & (svc_B == s))
+            found = _lowest_below(self.rank[items], self.first[items], self.rank[ask], big)
+            if not self.strict:
+                eq = np.flatnonzero(strict_t & (svc_B == s))
+                found = np.minimum(
+                    found,
+                    _lowest_equal(
+                        self.rank[eq], self.p[eq], self.first[eq], self.rank[ask], self.p[ask], big
+                    ),
+                )
+            best[ask] = np.minimum(best[ask], found)
+        for x in np.flatnonzero(self.in_T[:-1]).tolist():
+            ask = np.flatnonzero(self.p == x)
+            if ask.size == 0:
+                continue
+            bt_first = self.t[:, 0] != x
+            bt = np.where(bt_first, self.t[:, 0], self.t[:, 1])
+            bst = np.where(bt_first, self.tstrict[:, 0], self.tstrict[:, 1])
+            r = self.rank[ask[0]]  # one slot, one load
+            lt, eq = self.rank < r, self.rank == r
+            good = seat & (self.p != x) & (bt >= 0)
+            good &= (lt & bst) if self.strict else (lt | (eq & bst))
+            per_service = _min_per(svc_B[good], self.first[good], st.S, big)
+            got = np.where(self.K[ask], per_service[None, :], big).min(axis=1)
+            best[ask] = np.minimum(best[ask], got)
+        return best
+
+    # ------------------------------------------------------ case 2b, b takes p_A
+    def _b_takes(self) -> _IntArray:
+        """Lowest first robot of a class ``B`` that takes ``p_A`` while ``a`` moves on.
+
+        ``p_A`` can take ``b``, ``B`` has its service and sits elsewhere; ``a`` goes to its
+        first target other than ``p_B``.  Strict: ``a``'s load is below ``b``'s and that
+        target strict; pareto: below (any target), or equal with a strict target.
+        Classes off ``T`` never meet ``a``'s target: by service, rank-sorted suffix
+        minima; the classes on ``T`` are decided slot by slot.
+        """
+        st, C, big = self.st, self.C, self.big
+        best = np.full(C, big, dtype=np.int64)
+        on = self.p >= 0
+        home = np.where(on, self.p, 0)
+        askers = on & st.ok0[home]
+        svc_A = st.svc[home]
+        t0, t1 = self.t[:, 0], self.t[:, 1]
+        s0, s1 = self.tstrict[:, 0], self.tstrict[:, 1]
+        off_T = ~self.in_T[self.p]
+        for s in range(st.S):
+            ask = np.flatnonzero(askers & (svc_A == s) & (t0 >= 0))
+            if ask.size == 0:
+                continue
+            items = np.flatnonzero(off_T & self.K[:, s])
+            found = _lowest_above(self.rank[items], self.first[items], self.rank[ask], big)
+            if self.strict:
+                found = np.where(s0[ask], found, big)
+            else:
+                eq = _lowest_equal(
+                    self.rank[items], self.p[items], self.first[items], self.rank[ask],
+                    self.p[ask], big,
+                )  # fmt: skip
+                found = np.minimum(found, np.where(s0[ask], eq, big))
+            best[ask] = np.minimum(best[ask], found)
+        ask = np.flatnonzero(askers)
+        if ask.size == 0:
+            return best
+        rank_A, p_A, need = self.rank[ask], self.p[ask], svc_A[ask]
+        for x in np.flatnonzero(self.in_T[:-1]).tolist():
+            there = np.flatnonzero(self.p == x)
+            if there.size == 0:
+                continue
+            per_service = _min_per(
+                np.nonzero(self.K[there])[1], np.repeat(self.first[there], self.K[there].sum(1)),
+                st.S, big,
+            )  # fmt: skip
+            r = self.rank[there[0]]
+            moved = t0[ask] == x
+            at = np.where(moved, t1[ask], t0[ask])
+            ast = np.where(moved, s1[ask], s0[ask])
+            lt, eq = rank_A < r, rank_A == r
+            good = (p_A != x) & (at >= 0)
+            good &= (lt & ast) if self.strict else (lt | (eq & ast))
+            got = np.where(good, per_service[need], big)
+            best[ask] = np.minimum(best[ask], got)
+        return best
+
+
+# ------------------------------------------------------------------ index helpers
+def _distinct_rows(rows: _IntArray) -> tuple[_IntArray, _IntArray]:
+    """Ids of the distinct rows of an integer matrix and the first row of each id.
+
+    Ids number the distinct rows ``0 .. G - 1`` in lexicographic order.  Column by
+    column, the ids so far and the next column are packed into one integer and
+    re-numbered (1-d sorts: much faster than ``np.unique(axis=0)``; no overflow, the ids
+    stay below the row count).
+    """
+    ids = np.zeros(rows.shape[0], dtype=np.int64)
+    if rows.shape[0] == 0:
+        return ids, ids.copy()
+    for col in rows.T:
+        col = col.astype(np.int64) - int(col.min())
+        _, ids = np.unique(ids * (int(col.max()) + 1) + col, return_inverse=True)
+        ids = ids.reshape(-1)
+    _, at = np.unique(ids, return_index=True)
+    return ids, at
+
+
+def _load_ranks(vn: _IntArray, vd: _IntArray) -> _IntArray:
+    """Dense ranks of the loads ``vn / vd`` (``vd == 0``: ``+inf``, the top rank), exactly:
+    equal loads share a rank and a lower load has a lower rank."""
+    finite = np.flatnonzero(vd > 0)
+    order = finite[_exact_order(vn[finite], vd[finite], finite)]
+    new = np.ones(order.size, dtype=np.int64)
+    a, b = order[:-1], order[1:]
+    new[1:] = vn[a] * vd[b] != vn[b] * vd[a]
+    ranks = np.full(vn.size, int(new.sum()), dtype=np.int64)
+    ranks[order] = np.cumsum(new) - 1
+    return ranks
+
+
+def _two_lowest(values: _IntArray, big: int) -> tuple[int, int]:
+    """The two smallest entries of ``values``; ``big`` stands in for missing ones."""
+    if values.size == 0:
+        return big, big
+    if values.size == 1:
+        return int(values[0]), big
+    two = np.partition(values, 1)[:2]
+    return int(two[0]), int(two[1])
+
+
+def _grouped_two_lowest(
+    group: _IntArray, value: _IntArray, n_groups: int, big: int
+) -> tuple[_IntArray, _IntArray]:
+    """Per group ``0 .. n_groups - 1``, its two smallest values (``big`` when missing)."""
+    order = np.lexsort((value, group))
+    g, v = group[order], np.append(value[order], big)  # v[g.size]: the stand-in
+    start = np.searchsorted(g, np.arange(n_groups))
+    size = np.searchsorted(g, np.arange(n_groups), side="right") - start
+    low1 = v[np.where(size >= 1, start, g.size)]
+    low2 = v[np.where(size >= 2, start + 1, g.size)]
+    return low1, low2
+
+
+def _two_lowest_of_groups(
+    chosen: npt.NDArray[np.bool_], low1: _IntArray, low2: _IntArray, big: int
+) -> tuple[int, int]:
+    """The two smallest values over the chosen groups, given each group's two smallest."""
+    first = np.where(chosen, low1, big)
+    if first.size == 0:
+        return big, big
+    k = int(np.argmin(first))
+    best = int(first[k])
+    first[k] = big
+    second = min(int(first.min()), int(low2[k]) if chosen[k] else big)
+    return best, second
+
+
+def _min_per(key: _IntArray, value: _IntArray, n_keys: int, big: int) -> _IntArray:
+    """Per key ``0 .. n_keys - 1`` the smallest value of its entries (``big``: none)."""
+    out = np.full(n_keys, big, dtype=np.int64)
+    np.minimum.at(out, key, value)
+    return out
+
+
+def _lowest_below(rank: _IntArray, value: _IntArray, ask: _IntArray, big: int) -> _IntArray:
+    """Per asked rank, the smallest value among the items of a lower rank."""
+    order = np.argsort(rank, kind="stable")
+    prefix = np.concatenate([[big], np.minimum.accumulate(value[order])]).astype(np.int64)
+    return prefix[np.searchsorted(rank[order], ask, side="left")]
+
+
+def _lowest_above(rank: _IntArray, value: _IntArray, ask: _IntArray, big: int) -> _IntArray:
+    """Per asked rank, the smallest value among the items of a higher rank."""
+    order = np.argsort(rank, kind="stable")
+    suffix = np.concatenate([np.minimum.accumulate(value[order][::-1])[::-1], [big]])
+    return suffix.astype(np.int64)[np.searchsorted(rank[order], ask, side="right")]
+
+
+def _lowest_equal(
+    rank: _IntArray,
+    slot: _IntArray,
+    value: _IntArray,
+    ask_rank: _IntArray,
+    ask_slot: _IntArray,
+    big: int,
+) -> _IntArray:
+    """Per query, the smallest value among the items of the same rank on another slot.
+
+    Per (rank, slot) only the smallest value can matter, and per rank the two smallest
+    of those (they lie on different slots), so one of them answers every query.
+    """
+    if rank.size == 0:
+        return np.full(ask_rank.size, big, dtype=np.int64)
+    order = np.lexsort((value, slot, rank))
+    r, p, v = rank[order], slot[order], value[order]
+    head = np.ones(r.size, dtype=bool)
+    head[1:] = (r[1:] != r[:-1]) | (p[1:] != p[:-1])
+    r, p, v = r[head], p[head], v[head]
+    order = np.lexsort((v, r))
+    r, p, v = r[order], p[order], v[order]
+    ranks, start, size = np.unique(r, return_index=True, return_counts=True)
+    low2 = np.where(size >= 2, v[np.minimum(start + 1, v.size - 1)], big)
+    k = np.minimum(np.searchsorted(ranks, ask_rank), ranks.size - 1)
+    pick = np.where(p[start[k]] != ask_slot, v[start[k]], low2[k])
+    return np.where(ranks[k] == ask_rank, pick, big)
