@@ -1,12 +1,15 @@
 """Wall-clock benchmark of GRAPE-S and Pair-GRAPE-S (issue 5 targets).
 
-Run: ``python benchmarks/bench_grape_s.py [--repeats 5] [--quick] [--profile]``.
+Run: ``python benchmarks/bench_grape_s.py [--repeats 5] [--big-repeats 3] [--quick]
+[--no-100k] [--profile]``.
 Prints medians of ``--repeats`` whole calls (mission generation excluded):
 
 * GRAPE-S and Pair-GRAPE-S at 1000 robots, every composition and percent-task level of
   the seed's grid (target: < 1 s each; the seed's C++ simulator: median 5 min 22 s at
   1000 robots, 50 %, 10:5);
-* GRAPE-S at 10,000 robots, 10 % tasks, 10:5 (target: < 60 s);
+* GRAPE-S and Pair-GRAPE-S on ``cfopt.generate_mission(n, 10, 10, 5, seed=0)`` at
+  n = 10,000 (index and random order) and n = 100,000 (index order; target: < 60 s
+  each; ``--big-repeats`` calls, ``--no-100k`` skips them);
 * fast vs reference engine at 200 robots, 10:5, 50 % (target: >= 100x).
 """
 
@@ -18,7 +21,7 @@ import pstats
 import statistics
 import time
 
-from cfopt import GridCell
+from cfopt import GridCell, generate_mission
 from heuristics import grape_s, pair_grape_s
 from heuristics._reference import grape_s_reference
 
@@ -32,10 +35,32 @@ def median_seconds(function, mission, repeats: int, **kwargs) -> tuple[float, ob
     return statistics.median(times), run
 
 
+def scale(args: argparse.Namespace) -> None:
+    """Medians at 10,000 (index and random order) and 100,000 robots (index order)."""
+    cases = [(10_000, "index", args.repeats), (10_000, "random", args.repeats)]
+    if not args.no_100k:
+        cases.append((100_000, "index", args.big_repeats))
+    print(f"{'robots':>8}{'order':>8}{'grape-s':>10}{'iters':>8}{'pair-grape-s':>14}{'iters':>8}")
+    for n, order, repeats in cases:
+        m = generate_mission(n, 10, 10, 5, seed=0)
+        if args.profile and n == 10_000 and order == "index":
+            profiler = cProfile.Profile()
+            profiler.enable()
+            grape_s(m)
+            profiler.disable()
+            pstats.Stats(profiler).sort_stats("tottime").print_stats(12)
+        tg, g = median_seconds(grape_s, m, repeats, order=order, seed=0)
+        tp, p = median_seconds(pair_grape_s, m, repeats, order=order, seed=0)
+        print(f"{n:>8}{order:>8}{tg:>10.3f}{g.iterations:>8}{tp:>14.3f}{p.iterations:>8}")
+    print("generate_mission(n, 10, 10, 5, seed=0); target < 60 s at 100,000 robots\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--quick", action="store_true", help="skip 10,000 robots")
+    parser.add_argument("--big-repeats", type=int, default=3, help="calls at 100,000 robots")
+    parser.add_argument("--quick", action="store_true", help="skip 10,000 and 100,000 robots")
+    parser.add_argument("--no-100k", action="store_true", help="skip 100,000 robots")
     parser.add_argument("--profile", action="store_true", help="cProfile the 10,000-robot run")
     args = parser.parse_args()
     r = args.repeats
@@ -61,18 +86,7 @@ def main() -> None:
     print(f"worst 1000-robot median: {worst:.3f} s (target < 1 s)\n")
 
     if not args.quick:
-        m = GridCell(10_000, 10, 10, 5).mission(0)
-        if args.profile:
-            profiler = cProfile.Profile()
-            profiler.enable()
-            grape_s(m)
-            profiler.disable()
-            pstats.Stats(profiler).sort_stats("cumulative").print_stats(12)
-        t, g = median_seconds(grape_s, m, r)
-        print(
-            f"grape-s n=10000 p=10% 10:5: {t:.3f} s, {g.iterations} iterations, "
-            f"{g.assignment.percent_utility(m):.2f}% utility (target < 60 s)\n"
-        )
+        scale(args)
 
     m = GridCell(200, 50, 10, 5).mission(0)
     tf, f = median_seconds(grape_s, m, r)

@@ -8,13 +8,16 @@ from __future__ import annotations
 
 import heapq
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
+from heuristics._grape_s_fast import BAND as _BAND
+from heuristics._grape_s_fast import EXACT_FLOAT_LIMIT as _EXACT_FLOAT_LIMIT
+from heuristics._grape_s_fast import Outcome as _Outcome
+from heuristics._grape_s_fast import core_fast
 from heuristics._run import Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.reward import VOID, RewardModel, reward_model
@@ -22,10 +25,6 @@ from heuristics.reward import VOID, RewardModel, reward_model
 __all__ = ["grape_s"]
 
 SeedLike = int | np.random.Generator | None
-#: Float filter width for utility-weighted rewards of different tasks (see ``_core``).
-_BAND = 1e-9
-#: Below this, (c + 1) / req as a float is an exact key for the paper reward.
-_EXACT_FLOAT_LIMIT = 2**26
 
 
 def grape_s(
@@ -111,7 +110,16 @@ def grape_s(
     go to the exact comparison of :class:`heuristics.reward.UtilityKey`, once per distinct
     pair (target slot, own slot) -- the robots of a slot and type share it, so weights
     that differ by a hair (requirements near ``2**31``, utilities one ulp apart) cost a
-    few exact comparisons per round, not one per robot.
+    few exact comparisons per round, not one per robot.  That is ``_core_literal``, kept
+    as the cross-check.
+
+    The default core (:mod:`heuristics._grape_s_fast`) removes the O(n) per round: robots
+    with the same service and the same slot key want the same, so it keeps, per service
+    and distinct exact key, the highest robot index (lazy heaps, O(S log n) per move) and
+    finds the mover by comparing the ``S`` service bests with the ``B`` distinct keys:
+    O(S B) per round in index order (``B``: a few dozen for the paper reward).  Random
+    order still draws a fresh permutation per round, O(n), and scans it from its end.
+    Same moves, counts and generator draws as ``_core_literal``.
 
     Examples
     --------
@@ -153,16 +161,6 @@ def grape_s(
     )
 
 
-@dataclass
-class _Outcome:
-    task: npt.NDArray[np.int64]
-    service: npt.NDArray[np.int64]
-    iterations: int = 0
-    rounds: int = 0
-    work: int = 0
-    moves: list[tuple[int, int, int, int]] = field(default_factory=list)
-
-
 def _core(
     caps: npt.NDArray[np.bool_],
     reqs: npt.NDArray[np.int64],
@@ -170,8 +168,31 @@ def _core(
     order: str,
     capped: bool,
     rng: np.random.Generator,
+    *,
+    literal: bool = False,
 ) -> _Outcome:
-    """The GRAPE-S rounds; see :func:`grape_s` Notes for the method."""
+    """The GRAPE-S rounds: the grouped engine, or ``_core_literal`` when ``literal``.
+
+    Both make the same moves, draw the same permutations from ``rng`` and return the same
+    outcome; :mod:`heuristics._grape_s_fast` describes the grouped engine.
+    """
+    if literal:
+        return _core_literal(caps, reqs, model, order, capped, rng)
+    return core_fast(caps, reqs, model, order, capped, rng)
+
+
+def _core_literal(
+    caps: npt.NDArray[np.bool_],
+    reqs: npt.NDArray[np.int64],
+    model: RewardModel,
+    order: str,
+    capped: bool,
+    rng: np.random.Generator,
+) -> _Outcome:
+    """The GRAPE-S rounds with O(n) numpy work per round (the engine before grouping).
+
+    See :func:`grape_s` Notes for the method.
+    """
     n, S = caps.shape
     m = reqs.shape[0]
     MS = m * S
