@@ -36,7 +36,7 @@ import json
 import math
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
@@ -372,20 +372,33 @@ class Latency:
 
     def sample_one(self, rng: np.random.Generator) -> int:
         """One delay as a Python int: the same draw from ``rng`` as ``sample(rng, 1)`` and
-        the same value (scalar generator calls consume the stream as size-1 calls do).
-        O(1) without numpy arrays: the simulator's direct messages take this path."""
-        first = self.durations_ns[0]
+        the same value (scalar generator calls consume the stream as size-1 calls do)."""
+        return self.scalar_sampler(rng)()
+
+    def scalar_sampler(self, rng: np.random.Generator) -> Callable[[], int]:
+        """A function drawing one delay from ``rng`` per call, as :meth:`sample_one` does,
+        with the kind's checks done once: O(1) per call without numpy arrays (the
+        simulator's direct messages take this path)."""
+        first = int(self.durations_ns[0])
         if self.is_fixed:
-            return int(first)
+            return lambda: first
         if self.kind == "uniform":
-            return int(rng.integers(first, self.durations_ns[1], endpoint=True))
+            last = int(self.durations_ns[1])
+            integers = rng.integers
+            return lambda: int(integers(first, last, endpoint=True))
         if self.kind == "exponential":
-            raw = float(rng.exponential(float(first)))
-        else:
-            raw = float(rng.lognormal(math.log(first), self.sigma))
-        if not raw < MAX_DELAY_NS:
-            return MAX_DELAY_NS
-        return max(round(raw), 0)  # round half to even, as numpy's rint
+            exponential, mean = rng.exponential, float(first)
+            return lambda: _whole_ns(float(exponential(mean)))
+        lognormal, mu, sigma = rng.lognormal, math.log(first), self.sigma
+        return lambda: _whole_ns(float(lognormal(mu, sigma)))
+
+
+def _whole_ns(raw: float) -> int:
+    """A drawn delay rounded as :meth:`Latency.sample` rounds it: half to even (numpy's
+    ``rint``), clipped to ``[0, MAX_DELAY_NS]``."""
+    if not raw < MAX_DELAY_NS:
+        return MAX_DELAY_NS
+    return max(round(raw), 0)
 
 
 # ---------------------------------------------------------------------------- loss
@@ -1764,6 +1777,15 @@ class Links:
         self._latency_rng = latency_rng
         self._loss_rng = loss_rng
         self._bad: dict[int, npt.NDArray[np.bool_]] = {}
+        self._one_delay = self.latency.scalar_sampler(latency_rng)
+        # transmit_one's loss probability: 0 lossless, p Bernoulli, None Gilbert-Elliott
+        self._one_loss: float | None = (
+            0.0
+            if self.loss.is_lossless
+            else self.loss.probabilities[0]
+            if self.loss.kind == "bernoulli"
+            else None
+        )
         self.transmissions = 0
         self.receptions = 0
         self.losses = 0
@@ -1799,16 +1821,16 @@ class Links:
         O(1) without numpy arrays for Bernoulli or no loss (the simulator sends every
         direct message hop this way); Gilbert-Elliott loss goes through :meth:`transmit`.
         """
-        if not self.loss.is_lossless and self.loss.kind != "bernoulli":
-            delays, lost = self.transmit(sender, [receiver])
-            return int(delays[0]), bool(lost[0])
+        if self._one_loss is None:
+            delays, losts = self.transmit(sender, [receiver])
+            return int(delays[0]), bool(losts[0])
         n = self.network.n
         if not 0 <= sender < n:
             raise IndexError(f"sender {sender!r} is not in 0..{n - 1}")
         if not 0 <= receiver < n or receiver == sender:
             raise IndexError(f"receivers must be robots in 0..{n - 1} other than the sender")
-        delay = self.latency.sample_one(self._latency_rng)
-        lost = not self.loss.is_lossless and self._loss_rng.random() < self.loss.probabilities[0]
+        delay = self._one_delay()
+        lost = self._one_loss > 0 and self._loss_rng.random() < self._one_loss
         self.transmissions += 1
         self.receptions += 1
         self.losses += int(lost)

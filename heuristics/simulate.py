@@ -694,7 +694,8 @@ class _Simulation:
         self._forward(dest, message, len(payload), source, now)
 
     def _forward(self, dest: int, message: Any, size: int, at: int, now: int) -> None:
-        nxt = self.network.next_hop(at, dest)
+        # a complete network (no adjacency kept) delivers directly: next_hop would say so
+        nxt = dest if self.network.indptr is None else self.network.next_hop(at, dest)
         if self.faults is None:
             delay, lost = self.links.transmit_one(at, nxt)
         else:
