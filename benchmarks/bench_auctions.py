@@ -2,7 +2,7 @@
 
     python benchmarks/bench_auctions.py [--repeat 3] [--profile]
 
-Targets (issue 6): 1000 robots, 10% tasks, 10:5 -- SDA < 30 s, RACHNA_dt < 60 s;
+Targets: 1000 robots, 10% tasks, 10:5 -- SDA < 30 s, RACHNA_dt < 60 s;
 500 robots, 10% tasks, 5:5 -- both < 5 s.  The seed reports 20-30 min (SDA) and > 2 h
 (RACHNA_dt) at 1000 robots with five services per robot, in C++.
 """

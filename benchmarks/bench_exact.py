@@ -1,6 +1,6 @@
 """Wall-clock benchmark of the exact solver: a table of medians against the targets.
 
-Scale targets (issue "Scale"; whole call: presolve, grouping, model build, HiGHS,
+Scale targets (whole call: presolve, grouping, model build, HiGHS,
 recovery and the utility re-evaluated from scratch):
 
 - 100,000 robots, 50,000 tasks (50 %), every composition (5:1, 5:5, 10:1, 10:5), load
@@ -8,7 +8,7 @@ recovery and the utility re-evaluated from scratch):
   each, peak memory under 4 GB;
 - 1000 robots, 50 % tasks, 10:5, load 1.25 (seed 0): under 0.2 s.
 
-With ``--earlier``, issue 3's targets as well (median over a cell's first ``repeat``
+With ``--earlier``, the earlier targets as well (median over a cell's first ``repeat``
 missions, ``GridCell.mission(0..)``):
 
 - 1000 robots, 10 % and 50 % tasks, 10:5, load 1.0 and 1.25: under 0.5 s each;
@@ -86,7 +86,7 @@ def run_case(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--earlier", action="store_true", help="issue 3's targets as well")
+    parser.add_argument("--earlier", action="store_true", help="the earlier targets as well")
     parser.add_argument(
         "--only", type=int, default=None, help="only the scale cases with this many robots"
     )
@@ -134,7 +134,7 @@ def main() -> None:
 
 
 def earlier_targets(repeat: int, line) -> list[tuple[str, bool]]:
-    """Issue 3's cases (see the module docstring); their verdicts."""
+    """The earlier cases (see the module docstring); their verdicts."""
     verdicts = []
     for percent in (10, 50):
         for load in (1.0, 1.25):

@@ -1,4 +1,4 @@
-"""Wall-clock benchmark of GRAPE-S and Pair-GRAPE-S (issue 5 targets).
+"""Wall-clock benchmark of GRAPE-S and Pair-GRAPE-S.
 
 Run: ``python benchmarks/bench_grape_s.py [--repeats 5] [--big-repeats 3] [--quick]
 [--no-100k] [--profile]``.

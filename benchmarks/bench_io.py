@@ -1,6 +1,6 @@
 """Loading and validating a large mission file, and scoring an assignment on it.
 
-Target (issue 2): a 100,000-robot, 50,000-task mission file loads and validates in under
+Target: a 100,000-robot, 50,000-task mission file loads and validates in under
 5 s with peak memory under 1 GB; ``Assignment.utility`` on it takes under 50 ms.
 
 Run: ``python benchmarks/bench_io.py [--repeat 5]``.  Each load runs in a fresh

@@ -1,6 +1,6 @@
 """Scale: the pairwise-stability checker and RACHNA_dt up to 100,000 robots.
 
-Targets (issue "Scale"): ``proofs.pairwise_violations`` on a 100,000-robot partition in
+Targets: ``proofs.pairwise_violations`` on a 100,000-robot partition in
 under 30 s per mode with a peak RSS under 4 GB; ``heuristics.rachna_dt`` on
 ``cfopt.generate_mission(100000, 10, 10, 5, seed=0)`` (load 1) in under 30 s with a peak
 RSS under 2 GB.

@@ -1,6 +1,6 @@
 """Wall-clock medians of the stability checkers on the seed's largest 10:5 cell.
 
-Targets (issue 4): on a 1000-robot, 500-task, 10:5 mission, ``nash_violations`` under
+Targets: on a 1000-robot, 500-task, 10:5 mission, ``nash_violations`` under
 50 ms and ``pairwise_violations`` under 2 s.
 
     python benchmarks/bench_stability.py [--repeats 5] [--seeds 0 1 2]
