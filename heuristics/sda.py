@@ -9,7 +9,6 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from dataclasses import dataclass, field
 from fractions import Fraction
 
 import numpy as np
@@ -24,6 +23,10 @@ from heuristics._auction import (
     check_order,
 )
 from heuristics._run import Run, seed_label
+from heuristics._sda_fast import Outcome as _Outcome
+from heuristics._sda_fast import Touched as _Touched
+from heuristics._sda_fast import bid_messages as _bid_messages
+from heuristics._sda_fast import core as _core
 from heuristics.communication import comm_model, communication_table, table_cost
 
 __all__ = ["SCHEDULES", "sda"]
@@ -106,10 +109,15 @@ def sda(
     ``h`` is the least number of high-wage robots in a complete bundle (a 0/1-weighted
     matching, exact).  The engine therefore jumps from award round to award round: after
     each award round it finds every task's first affordable round -- the sweep in which
-    ``k wage`` crosses ``u[j]`` in closed form, then a binary search inside that sweep
-    (``log2 q`` matchings) -- visiting tasks in order of that sweep and stopping as soon as
-    the next sweep starts after the best round found.  It produces exactly the
-    round-by-round trajectory (tests compare it with a literal transcription).
+    ``k wage`` crosses ``u[j]`` in closed form, then the position inside that sweep, read
+    off the task's index-order greedy basis (``h`` is ``k`` minus the number of basis robots
+    at the low wage, so the crossing is one past the basis robot number ``T_j``, a static
+    rank; see :mod:`heuristics._sda_fast`) -- visiting tasks in order of that sweep and
+    stopping as soon as the next sweep starts after the best round found.  A basis is
+    rebuilt only after one of its robots is sold.  The bids and awards themselves use the
+    matching below.  It produces exactly the round-by-round trajectory (tests compare it
+    with a literal transcription, and with the previous engine, which found the position
+    by a binary search of ``log2 q`` matchings).
 
     Any utility and requirement.  Wages, costs and utilities are fractions, and the round
     and decrement clocks Python integers, so nothing overflows however large ``u_max /
@@ -140,10 +148,11 @@ def sda(
     k_j`` entries, and so does each re-bid; the engine itself does far less (it restricts
     candidates, see :mod:`heuristics._auction`).
 
-    Complexity: O(m) award rounds, each costing O(m' (log q) M) where ``m'`` is the number of
-    tasks whose crossing sweep is near the front and ``M`` one matching on at most
-    ``k_j |S_j|`` candidates, plus O(n S) bookkeeping; arithmetic on numbers of
-    O(log(u_max / eps)) digits, independent of the number of rounds.
+    Complexity: O(m) award rounds, each costing O(m' B) where ``m'`` is the number of
+    tasks whose crossing sweep is near the front and ``B`` the rebuild of a greedy basis on
+    at most ``k_j |S_j|`` candidates (only for tasks that lost a basis robot), plus one
+    matching per bid and O(n S) bookkeeping; arithmetic on numbers of O(log(u_max / eps))
+    digits, independent of the number of rounds.
 
     Examples
     --------
@@ -193,29 +202,12 @@ def sda(
     )
 
 
-@dataclass
-class _Outcome:
-    task: npt.NDArray[np.int64]
-    service: npt.NDArray[np.int64]
-    iterations: int = 0
-    rounds: int = 0
-    messages: int = 0  # unicast: one per receiver
-    bytes: int = 0
-    cast_messages: int = 0  # broadcast: one per announcement, one per direct message
-    cast_bytes: int = 0
-    work: int = 0
-    moves: list[tuple[int, int, int, int]] = field(default_factory=list)
+def _core_literal(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
+    """The previous engine, kept as the reference :func:`_core` is tested equal to.
 
-    def direct(self, messages: int, nbytes: int) -> None:
-        """Count direct messages (bids, answers): the same under both media."""
-        self.messages += messages
-        self.bytes += nbytes
-        self.cast_messages += messages
-        self.cast_bytes += nbytes
-
-
-def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
-    """The auction; see :func:`sda` Notes for the method."""
+    Same auction (:func:`sda` Notes); a task's first affordable round is found by a binary
+    search of ``log2 q`` matchings instead of the prefix ranks of :mod:`heuristics._sda_fast`.
+    """
     caps, reqs = mission.capabilities, mission.requirements
     n = caps.shape[0]
     m = reqs.shape[0]
@@ -432,38 +424,3 @@ def _core(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
             break
     out.rounds = R
     return out
-
-
-def _bid_messages(out: _Outcome, finder: BundleFinder, j: int) -> None:
-    counts = finder.counts[j]
-    out.direct(len(counts), len(counts) * HEADER_BYTES + ENTRY_BYTES * sum(counts))
-
-
-class _Touched:
-    """Per task, how many robots of a set have at least one service the task needs.
-
-    ``touched(caps_rows)`` equals ``((caps_rows @ needmask.T) > 0).sum(axis=0)`` (the
-    literal count), computed per capability type: the distinct rows of ``caps_rows`` with
-    their multiplicities, each tested against every task at once.  With at most 62
-    services a type and a task's needs are bit codes and "shares a service" is one AND,
-    so a call costs O(k S + U m) time and O(U m) memory for ``U <= k`` types, instead of
-    the O(k S m) product; otherwise the ``U x m`` product decides.
-    """
-
-    def __init__(self, needmask: npt.NDArray[np.bool_]) -> None:
-        self.need = needmask  # m x S
-        n_services = needmask.shape[1]
-        self.bits = (
-            (np.int64(1) << np.arange(n_services, dtype=np.int64)) if n_services <= 62 else None
-        )
-        self.codes = None if self.bits is None else needmask.astype(np.int64) @ self.bits
-
-    def __call__(self, caps_rows: npt.NDArray[np.bool_]) -> npt.NDArray[np.int64]:
-        """The count per task (int64, length m) for the robots ``caps_rows`` (k x S)."""
-        if self.bits is None:
-            kinds, counts = np.unique(caps_rows, axis=0, return_counts=True)
-            shares = (kinds.astype(np.int64) @ self.need.T.astype(np.int64)) > 0
-        else:
-            kinds, counts = np.unique(caps_rows.astype(np.int64) @ self.bits, return_counts=True)
-            shares = (kinds[:, None] & self.codes[None, :]) != 0  # U x m
-        return counts.astype(np.int64) @ shares
