@@ -57,6 +57,7 @@ from heuristics._auction import (
     check_eps,
     check_order,
 )
+from heuristics._rachna_fast import Ledger
 from heuristics._run import Run, seed_label
 from heuristics.communication import comm_model, communication_table, table_cost
 
@@ -404,14 +405,17 @@ def _core(
     max_rounds: int,
     jump: bool = True,
     schedule: str = "simultaneous",
+    fast: bool = True,
 ) -> _Outcome:
     """The auction rounds of ``schedule``; see :func:`rachna_dt` Notes for the method.
 
-    ``jump=False`` turns the jump over repeating rounds off (the tests compare both).
-    Complexity as :func:`rachna_dt`.
+    ``jump=False`` turns the jump over repeating rounds off; ``fast=False`` runs the
+    simultaneous rounds on the literal price book (one sort of the robots and one search
+    per bidding task every round) instead of :class:`heuristics._rachna_fast.Ledger`
+    (the tests compare all of them).  Complexity as :func:`rachna_dt`.
     """
     if schedule == "simultaneous":
-        return _simultaneous(mission, eps, max_rounds, jump)
+        return _simultaneous(mission, eps, max_rounds, jump, fast)
     return _sequential(mission, eps, max_rounds, jump)
 
 
@@ -557,7 +561,9 @@ class _Bid:
     price: int
 
 
-def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
+def _simultaneous(
+    mission: Mission, eps: Fraction, max_rounds: int, jump: bool, fast: bool = True
+) -> _Outcome:
     """The simultaneous reading (every task bids on the round's opening wages, then the
     bids are awarded); see :func:`rachna_dt` Notes for the method and the proofs."""
     caps, reqs = mission.capabilities, mission.requirements
@@ -582,6 +588,7 @@ def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) 
     dead = ~finder.possible  # pruned: never staffable, never searched
     dead_work = sum(match_work[j] for j in np.flatnonzero(dead).tolist())
     market = _Market(finder)
+    ledger = Ledger(market, wage, held, _services) if fast else None
     taken = np.zeros(n, dtype=bool)  # scratch: robots awarded in the current round
 
     def too_many() -> MissionError:
@@ -609,13 +616,15 @@ def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) 
         out.rounds += 1
         out.work += dead_work
         bids: list[_Bid] = []
-        book = market.book(wage, held)
+        book = market.book(wage, held) if ledger is None else ledger.book()
         for j in np.flatnonzero(~staffed & ~dead).tolist():
             out.work += match_work[j]
             found = book.best(j)
             if found is None or found[2] > budget[j]:
                 dead[j] = True  # wages never fall: it can never afford a bundle again
                 dead_work += match_work[j]
+                if ledger is not None:
+                    ledger.drop(j)
                 continue
             bids.append(_Bid(j, *found))
         if not bids:
@@ -658,7 +667,10 @@ def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) 
             staffed[loser] = False
         # price announcements: every service agent with a changed robot tells every task
         # needing its service, one entry per changed robot
-        out.announce(m_s, caps64[np.concatenate(changed)].sum(axis=0))
+        moved = np.concatenate(changed)
+        out.announce(m_s, caps64[moved].sum(axis=0))
+        if ledger is not None:
+            ledger.update(moved)
         if jump:
             log.append(bids)
         if (
@@ -669,6 +681,8 @@ def _simultaneous(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) 
         ):
             if _leap(out, check, wage, log, market, budget, max_rounds, too_many):
                 span = 1
+                if ledger is not None:
+                    ledger.rebuild()
             else:
                 continue
         elif out.rounds - check.rounds >= span:
