@@ -29,6 +29,7 @@ BLOCKS = re.findall(r"^```(bash|python)\n(.*?)^```", README, flags=re.S | re.M)
 LONG_RUNNING = {
     "cfopt audit\n": 6.0,
     "cfopt sweep --grid paper ": 6.0,
+    "cfopt reproduce ": 6.0,
     "python benchmarks/": 4.0,
 }
 INSTALL = re.compile(r"^python3 -m venv \.venv && \. \.venv/bin/activate && python -m pip install ")
