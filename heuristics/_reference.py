@@ -1,7 +1,7 @@
 """GRAPE-S, literally: the executable specification of the fast engine.
 
 A direct transcription of the seed's Algorithm 1 for a fully connected network with
-synchronous rounds (algorithms.md §3).  Every robot ``a_i`` keeps its own belief
+synchronous rounds (every robot acts once per round).  Every robot ``a_i`` keeps its own belief
 ``(r^i, time^i, id^i, Pi^i)``; in each round every robot, in order, selects on *its own*
 belief (lines 4-9), changes only its own belief, then all robots broadcast to all
 neighbours (line 10) and run the distributed mutex on the messages received (lines

@@ -53,7 +53,7 @@ def broadcast_cost(n_robots: int, rounds: int) -> tuple[int, int]:
     point (the ``unicast`` medium, ``full`` encoding of :mod:`heuristics.communication`).
 
     Every robot sends its belief to each of its ``n - 1`` neighbours every round
-    (algorithms.md §3), so a round costs ``n (n - 1)`` messages of
+    (the seed's fully connected GRAPE-S round), so a round costs ``n (n - 1)`` messages of
     :func:`belief_bytes` bytes each.  Exact Python integers.  The engines' default is
     now the ``broadcast`` medium (``n`` transmissions a round):
     ``CommModel().rounds_cost(n, rounds, belief_bytes(n))``.
@@ -196,7 +196,9 @@ class Run:
         )
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
-        """The ``run`` JSON object of interface.md §3 (without the stability verdicts).
+        """The ``run`` JSON object that ``cfopt run --json`` prints, without the stability
+        verdicts: the keys below, plus ``network`` for a distributed run and
+        ``communication`` (one object per model) when the run counted by model.
 
         ``nash_stable`` and ``pairwise_stable`` are added by the caller from ``proofs``.
         """

@@ -58,8 +58,8 @@ def pair_grape_s(
     Phase 1 is :func:`heuristics.grape_s` with ``capped=True`` (a robot may not join a
     slot that already has ``req[j, s]`` robots: the seed's implementation note).
 
-    Phase 2, the pairwise step (algorithms.md §4), runs while some slot is *short*
-    (``c < req``) and some robot is unassigned.  A *pass* goes through the robots
+    Phase 2, the pairwise step (Algorithm 2 after its GRAPE-S phase), runs while some
+    slot is *short* (``c < req``) and some robot is unassigned.  A *pass* goes through the robots
     unassigned at its start, in the pass order (robot index order, or a fresh seeded
     permutation of all robots per pass for ``order="random"``).  Unassigned ``a_o``
     examines the assigned robots in the same order and takes the first ``a_i`` such that
