@@ -419,20 +419,31 @@ def _core(
     return _sequential(mission, eps, max_rounds, jump)
 
 
-def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
-    """The sequential reading (tasks act one after another); see :func:`rachna_dt`."""
+def _market(mission: Mission, eps: Fraction) -> tuple[Any, ...]:
+    """What both schedules derive from the mission before the first round: capabilities,
+    requirements, ``n``, ``m``, the bundle finder, exact utilities, integer budgets (units
+    of ``eps``), int64 copies of the needs and capabilities, the tasks needing each
+    service and each task's matching work per search."""
     caps, reqs = mission.capabilities, mission.requirements
-    n = caps.shape[0]
-    m = reqs.shape[0]
-    out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
     finder = BundleFinder(caps, reqs)
-    k = finder.k
     utilities = [Fraction(float(x)) for x in mission.utilities.tolist()]
     budget = [math.floor(x / eps) for x in utilities]
     need64 = (reqs > 0).astype(np.int64)
-    caps64 = caps.astype(np.int64)
-    m_s = need64.sum(axis=0)  # tasks needing each service
-    match_work = [int(r) * kj for r, kj in zip(finder.reach.tolist(), k, strict=True)]
+    m_s = need64.sum(axis=0)
+    match_work = [int(r) * kj for r, kj in zip(finder.reach.tolist(), finder.k, strict=True)]
+    return (
+        caps, reqs, caps.shape[0], reqs.shape[0], finder, utilities, budget, need64,
+        caps.astype(np.int64), m_s, match_work,
+    )  # fmt: skip
+
+
+def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
+    """The sequential reading (tasks act one after another); see :func:`rachna_dt`."""
+    _, reqs, n, m, finder, utilities, budget, need64, caps64, m_s, match_work = _market(
+        mission, eps
+    )
+    k = finder.k
+    out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
     wage = np.zeros(n, dtype=np.int64)  # units of eps
     held = np.zeros(n, dtype=np.int64)  # 1 when some task holds the robot
     holder = out.task  # shared: the assignment is the holder map
@@ -566,18 +577,8 @@ def _simultaneous(
 ) -> _Outcome:
     """The simultaneous reading (every task bids on the round's opening wages, then the
     bids are awarded); see :func:`rachna_dt` Notes for the method and the proofs."""
-    caps, reqs = mission.capabilities, mission.requirements
-    n = caps.shape[0]
-    m = reqs.shape[0]
+    _, reqs, n, m, finder, utilities, budget, _, caps64, m_s, match_work = _market(mission, eps)
     out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
-    finder = BundleFinder(caps, reqs)
-    k = finder.k
-    utilities = [Fraction(float(x)) for x in mission.utilities.tolist()]
-    budget = [math.floor(x / eps) for x in utilities]
-    need64 = (reqs > 0).astype(np.int64)
-    caps64 = caps.astype(np.int64)
-    m_s = need64.sum(axis=0)  # tasks needing each service
-    match_work = [int(r) * kj for r, kj in zip(finder.reach.tolist(), k, strict=True)]
     agents = [len(c) for c in finder.counts]  # service agents a task bids to
     bid_bytes = [2 * len(c) * HEADER_BYTES + ENTRY_BYTES * sum(c) for c in finder.counts]
     wage = np.zeros(n, dtype=np.int64)  # units of eps
