@@ -824,17 +824,9 @@ class _FastJoint(_Joint):
         return good & ((lt & bst) if self.strict else (le & (lt | bst)))
 
     def _pair_b_takes(self, A: _IntArray, B: _IntArray) -> npt.NDArray[np.bool_]:
-        """Case 2b of :meth:`_Joint._compatible`: ``b`` takes ``p_A``, ``a`` moves on."""
-        st = self.st
-        pA, pB, tA, sA, _, _ = self._sides(A, B)
-        lt = _lt(self.vn[A], self.vd[A], self.vn[B], self.vd[B])
-        le = _le(self.vn[A], self.vd[A], self.vn[B], self.vd[B])
-        pAs = np.where(pA >= 0, pA, 0)
-        at_first = tA[:, 0] != pB
-        at = np.where(at_first, tA[:, 0], tA[:, 1])
-        ast = np.where(at_first, sA[:, 0], sA[:, 1])
-        good = (pA >= 0) & st.ok0[pAs] & (pB != pA) & self.K[B, st.svc[pAs]] & (at >= 0)
-        return good & ((lt & ast) if self.strict else (le & (lt | ast)))
+        """Case 2b of :meth:`_Joint._compatible`: ``b`` takes ``p_A``, ``a`` moves on --
+        case 2a with the two robots' roles swapped."""
+        return self._pair_a_takes(B, A)
 
     def _sides(self, A: _IntArray, B: _IntArray) -> tuple[_IntArray, ...]:
         """Slots, targets and strict flags of both sides: ``pA, pB, tA, sA, tB, sB``."""
