@@ -74,6 +74,7 @@ __all__ = [
     "belief_size",
     "comm_model",
     "communication_table",
+    "media_table",
     "slot_bits",
     "table_cost",
 ]
@@ -241,6 +242,17 @@ def communication_table(cost: Callable[[CommModel], tuple[int, int]]) -> Table:
     (('broadcast', 'full', 12, 336), ('broadcast', 'compact', 12, 204))
     """
     return tuple((c.medium, c.encoding, *map(int, cost(c))) for c in MODELS)  # type: ignore[misc]
+
+
+def media_table(unicast: tuple[int, int], broadcast: tuple[int, int]) -> Table:
+    """The communication table of a run that sends no beliefs (the auctions): ``(messages,
+    bytes)`` counted point to point for the unicast rows, and with each announcement as
+    one transmission for the broadcast rows; the encoding changes nothing.
+
+    >>> media_table((41, 820), (24, 480))[::2]
+    (('broadcast', 'full', 24, 480), ('unicast', 'full', 41, 820))
+    """
+    return communication_table(lambda c: unicast if c.medium == "unicast" else broadcast)
 
 
 def belief_rounds_table(

@@ -59,7 +59,7 @@ from heuristics._auction import (
 )
 from heuristics._rachna_fast import Ledger
 from heuristics._run import Run, seed_label
-from heuristics.communication import comm_model, communication_table, table_cost
+from heuristics.communication import comm_model, media_table, table_cost
 
 __all__ = ["MAX_ROUNDS", "SCHEDULES", "rachna_dt"]
 
@@ -282,13 +282,7 @@ def rachna_dt(
     comm = comm_model(medium, encoding)
     np.random.default_rng(seed)  # validates the seed; RACHNA_dt draws nothing
     out = _core(mission, eps_q, int(max_rounds), schedule=schedule)
-    table = communication_table(
-        lambda c: (
-            (out.messages, out.bytes)
-            if c.medium == "unicast"
-            else (out.cast_messages, out.cast_bytes)
-        )
-    )
+    table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)
     return Run(
         algorithm="rachna-dt",

@@ -27,7 +27,7 @@ from heuristics._sda_fast import Outcome as _Outcome
 from heuristics._sda_fast import Touched as _Touched
 from heuristics._sda_fast import bid_messages as _bid_messages
 from heuristics._sda_fast import core as _core
-from heuristics.communication import comm_model, communication_table, table_cost
+from heuristics.communication import comm_model, media_table, table_cost
 
 __all__ = ["SCHEDULES", "sda"]
 
@@ -178,13 +178,7 @@ def sda(
     comm = comm_model(medium, encoding)
     np.random.default_rng(seed)  # validates the seed; SDA draws nothing
     out = _core(mission, eps_q, schedule)
-    table = communication_table(
-        lambda c: (
-            (out.messages, out.bytes)
-            if c.medium == "unicast"
-            else (out.cast_messages, out.cast_bytes)
-        )
-    )
+    table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)
     return Run(
         algorithm="sda",
