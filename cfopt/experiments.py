@@ -840,13 +840,13 @@ def run_sweep(
                 stop_executor(pool)
             run.close_stage("interrupted")
             raise SweepInterrupted(
-                os.fspath(store), run.completed, run.remaining, _signal_name(exc)
+                os.fspath(store), run.committed(), run.remaining, _signal_name(exc)
             ) from None
         except ExecutorFailed as exc:
             if own:
                 stop_executor(pool)
             run.close_stage("stopped")
-            raise _kept(exc, run.completed, os.fspath(store)) from None
+            raise _kept(exc, run.committed(), os.fspath(store)) from None
         except BaseException:
             if own:
                 stop_executor(pool)
@@ -904,11 +904,17 @@ class _SweepRun:
         self.started = time.perf_counter()
         self.failures: list[tuple[str, int, str, str]] = []
         self.completed = self.skipped = self.to_run = 0
+        self.stored_at_start = db.count()  # one writer at a time: the rows added are ours
         self.ready: deque[tuple[GridCell, int, str, tuple[str, float, float] | None]] = deque()
         self.todo: deque[tuple[GridCell, int]] = deque()
         self.pending: dict[cf.Future, Any] = {}
         self.on_extra: Callable[[int, cf.Future], None] | None = None
         self.stage: Any = None
+
+    def committed(self) -> int:
+        """Trials this run stored, read from the store: an interruption can fall between a
+        commit and ``completed += 1``, and the message must count what is kept."""
+        return self.db.count() - self.stored_at_start
 
     def close_stage(self, summary: str) -> None:
         if self.stage is not None:
@@ -916,7 +922,7 @@ class _SweepRun:
 
     @property
     def remaining(self) -> int:
-        return self.to_run - self.completed - len(self.failures)
+        return self.to_run - self.committed() - len(self.failures)
 
     def start(self, extras: list[ExtraJob], on_extra: Any) -> None:
         sweep, db = self.sweep, self.db
