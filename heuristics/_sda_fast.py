@@ -2,8 +2,9 @@
 
 :func:`heuristics.sda.sda` runs :func:`core`; ``heuristics.sda._core_literal`` is the
 previous engine, kept as the reference this one is tested equal to.  Both jump over the
-rounds without an award and count them in closed form (:meth:`_Auction.quiet`); they differ
-in how a task's first affordable round is found.
+rounds without an award and count them in closed form, and bid and award alike: all of it
+is :class:`DescendingAuction`.  They differ only in how a task's first affordable round is
+found (:meth:`DescendingAuction.first_round`).
 
 Prefix ranks instead of a binary search
 ---------------------------------------
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from abc import ABC, abstractmethod
 from collections import defaultdict
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -44,9 +46,9 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission
-from heuristics._auction import ENTRY_BYTES, HEADER_BYTES, BundleFinder
+from heuristics._auction import ENTRY_BYTES, HEADER_BYTES, Bundle, BundleFinder
 
-__all__ = ["Outcome", "Touched", "bid_messages", "core", "greedy_basis"]
+__all__ = ["DescendingAuction", "Outcome", "Touched", "bid_messages", "core", "greedy_basis"]
 
 
 @dataclass
@@ -70,6 +72,20 @@ class Outcome:
         self.bytes += nbytes
         self.cast_messages += messages
         self.cast_bytes += nbytes
+
+    def announce(
+        self, receivers: npt.NDArray[np.int64], entries: npt.NDArray[np.int64], times: int = 1
+    ) -> None:
+        """Count ``times`` announcements of each service agent ``s`` with ``entries[s] > 0``
+        robots to tell about: ``receivers[s]`` messages of ``entries[s]`` entries unicast,
+        one transmission broadcast (none when it has no receiver)."""
+        size = HEADER_BYTES + ENTRY_BYTES * entries
+        has = entries > 0
+        self.messages += times * int(receivers[has].sum())
+        self.bytes += times * int((receivers * size)[has].sum())
+        sent = has & (receivers > 0)
+        self.cast_messages += times * int(sent.sum())
+        self.cast_bytes += times * int(size[sent].sum())
 
 
 def bid_messages(out: Outcome, finder: BundleFinder, j: int) -> None:
@@ -293,8 +309,22 @@ def core(mission: Mission, eps: Fraction, schedule: str) -> Outcome:
     return _Auction(mission, eps, schedule).run()
 
 
-class _Auction:
-    """The state of one auction between award rounds (the unsold robots, the clocks)."""
+class DescendingAuction(ABC):
+    """The state of one auction between award rounds (the unsold robots, the clocks).
+
+    Everything but the search for a task's first affordable round: the jump from award
+    round to award round, the counts of the rounds jumped over, the bids and awards.  A
+    subclass finds the first affordable round (:meth:`first_round`): :class:`_Auction` by
+    prefix ranks, ``heuristics.sda._core_literal``'s engine by a binary search of
+    matchings, the reference it is tested equal to.
+
+    Parameters
+    ----------
+    mission : cfopt.Mission
+    eps : Fraction
+        The wage decrement (> 0).
+    schedule : {"max-wage", "uniform"}
+    """
 
     def __init__(self, mission: Mission, eps: Fraction, schedule: str) -> None:
         caps, reqs = mission.capabilities, mission.requirements
@@ -310,7 +340,8 @@ class _Auction:
         self.w0 = max(self.u) + eps
         self.D = math.ceil(self.w0 / eps)  # decrements that bring a wage to 0
         self.k = finder.k
-        self._statics()
+        self.a_star = self._crossing_sweeps()
+        self.by_level = sorted(range(self.m), key=lambda j: (self.a_star[j], j))
         needmask = reqs > 0
         self.caps64 = caps.astype(np.int64)
         self.need64 = needmask.astype(np.int64)
@@ -328,33 +359,15 @@ class _Auction:
         self.R = 0  # rounds completed
         self.total = 0  # max-wage: decrements among the unsold robots (sum of their d)
         self.wfull = np.zeros(n, dtype=np.int64)
-        self.bases = _Bases(finder, caps)
 
     def wage(self, d: int) -> Fraction:
         """The wage after ``d`` decrements."""
         return max(Fraction(0), self.w0 - d * self.eps)
 
-    def _statics(self) -> None:
-        """Per task: the crossing sweep ``a_star`` and the rank ``T`` it needs there.
-
-        ``a_star[j]``: the first sweep level ``a`` at which ``k wage(a) <= u[j]``.  Under
-        ``max-wage`` the task first affords a bundle inside sweep ``a_star - 1``, when its
-        cheapest bundle has at most ``floor((u - k lo) / (hi - lo))`` high-wage robots, i.e.
-        when at least ``T = k - that`` of its basis robots have the low wage.
-        """
+    def _crossing_sweeps(self) -> list[int]:
+        """Per task, the first sweep level ``a`` at which ``k wage(a) <= u[j]`` (static)."""
         k, u, w0, eps, D = self.k, self.u, self.w0, self.eps, self.D
-        self.a_star = [
-            min(D, max(0, math.ceil((k[j] * w0 - u[j]) / (k[j] * eps)))) for j in range(self.m)
-        ]
-        self.by_level = sorted(range(self.m), key=lambda j: (self.a_star[j], j))
-        self.need_low = [0] * self.m
-        for j, a in enumerate(self.a_star):
-            if a == 0 or k[j] == 0:
-                continue
-            hi, lo = self.wage(a - 1), self.wage(a)
-            high = math.floor((u[j] - k[j] * lo) / (hi - lo))
-            self.need_low[j] = k[j] - high
-            assert 1 <= self.need_low[j] <= k[j]
+        return [min(D, max(0, math.ceil((k[j] * w0 - u[j]) / (k[j] * eps)))) for j in range(self.m)]
 
     # ---------------------------------------------------------------- the search
     def clock(self, t: int) -> int:
@@ -375,19 +388,9 @@ class _Auction:
             return hi, lo, np.zeros(alive.size, dtype=np.int64)
         return hi, lo, (self.pos[alive] >= r).astype(np.int64)
 
+    @abstractmethod
     def first_round(self, j: int) -> int | None:
         """First round > R in which task j can afford a bundle (None: never)."""
-        basis = self.bases.get(j, self.pools, self.unsold)
-        if basis is None:
-            return None
-        a = self.a_star[j]
-        if self.uniform:
-            return max(self.R + 1, a)
-        if a == 0:
-            return self.R + 1
-        q = self.alive.size
-        x = (a - 1) * q + int(self.pos[basis[self.need_low[j] - 1]]) + 1
-        return self.R + max(1, x - self.total)
 
     def lower_bound(self, j: int) -> int:
         """A round no earlier than task j's first affordable one."""
@@ -430,16 +433,11 @@ class _Auction:
             self._quiet_max_wage(t_from, t_to)
 
     def _quiet_uniform(self, t_from: int, t_to: int) -> None:
-        """Rounds t_from..t_to under ``uniform``: one notice per service agent and task."""
-        out, A = self.out, self.A
+        """Rounds t_from..t_to under ``uniform``: each round that decrements, every service
+        agent tells each unstaffed task needing its service, one entry per unsold robot."""
         dec_rounds = max(0, min(t_to, self.D) - t_from + 1)
         sizes = np.array([p.size for p in self.pools], dtype=np.int64)
-        has = sizes > 0
-        out.messages += dec_rounds * int(A[has].sum())
-        out.bytes += dec_rounds * int((A * (HEADER_BYTES + ENTRY_BYTES * sizes))[has].sum())
-        cast = has & (A > 0)  # one broadcast per service agent with a task to tell
-        out.cast_messages += dec_rounds * int(cast.sum())
-        out.cast_bytes += dec_rounds * int((HEADER_BYTES + ENTRY_BYTES * sizes)[cast].sum())
+        self.out.announce(self.A, sizes, times=dec_rounds)
 
     def _quiet_max_wage(self, t_from: int, t_to: int) -> None:
         """Rounds t_from..t_to under ``max-wage``: the decrements x0 < x <= x1, each
@@ -471,44 +469,39 @@ class _Auction:
 
         Returns the decrement clock of the round and the robots it sold.
         """
-        out, finder, k, u = self.out, self.finder, self.k, self.u
+        out, finder, u = self.out, self.finder, self.u
         x = self.clock(best)
         hi, lo, wt = self.weights_at(x)
         self.wfull[self.alive] = wt
         self.R = best
         out.iterations += 1
         sold_round = np.zeros(self.n, dtype=bool)
-        heap: list[tuple[Fraction, int, int]] = []
-        bundles = {}
+        bids = _Bids(out, finder, u)
         for j in sorted(bidders):
             b = finder.cheapest(j, self.pools, self.wfull)
             assert b is not None
-            bundles[j] = b
-            cost = k[j] * lo + (hi - lo) * b.weight
-            heapq.heappush(heap, (cost - u[j], j, 0))
-            bid_messages(out, finder, j)
-        while heap:
-            _, j, _ = heapq.heappop(heap)
-            b = bundles[j]
-            n_msg = len(finder.need[j])
-            out.direct(n_msg, n_msg * HEADER_BYTES)  # the answers
+            bids.make(j, b, self._cost(j, b, hi, lo))
+        while (bid := bids.answer()) is not None:
+            j, b = bid
             if sold_round[b.robots].any():  # rejected: recompute on what is left
-                out.work += int(self.rows[j]) * k[j]
+                out.work += int(self.rows[j]) * self.k[j]
                 nb = finder.cheapest(j, self.pools, self.wfull)
                 if nb is None:
                     self.dead[j] = True
                     continue
-                cost = k[j] * lo + (hi - lo) * nb.weight
+                cost = self._cost(j, nb, hi, lo)
                 if cost <= u[j]:
-                    bundles[j] = nb
-                    heapq.heappush(heap, (cost - u[j], j, 0))
-                    bid_messages(out, finder, j)
+                    bids.make(j, nb, cost)
                 continue
             self.sell(j, b, sold_round)
         self.sale_notices(sold_round)
         return x, sold_round
 
-    def sell(self, j: int, b, sold_round: npt.NDArray[np.bool_]) -> None:
+    def _cost(self, j: int, b: Bundle, hi: Fraction, lo: Fraction) -> Fraction:
+        """The price of task ``j``'s bundle ``b`` (``b.weight`` robots at the high wage)."""
+        return self.k[j] * lo + (hi - lo) * b.weight
+
+    def sell(self, j: int, b: Bundle, sold_round: npt.NDArray[np.bool_]) -> None:
         """Award task ``j`` its bundle ``b``."""
         out, caps = self.out, self.caps
         self.staffed[j] = True
@@ -525,14 +518,7 @@ class _Auction:
 
     def sale_notices(self, sold_round: npt.NDArray[np.bool_]) -> None:
         """After an award round, each service agent that sold tells the unstaffed tasks."""
-        out, A = self.out, self.A
-        sold_per_service = self.caps64[sold_round].sum(axis=0)
-        has = sold_per_service > 0
-        out.messages += int(A[has].sum())
-        out.bytes += int((A * (HEADER_BYTES + ENTRY_BYTES * sold_per_service))[has].sum())
-        cast = has & (A > 0)
-        out.cast_messages += int(cast.sum())
-        out.cast_bytes += int((HEADER_BYTES + ENTRY_BYTES * sold_per_service)[cast].sum())
+        self.out.announce(self.A, self.caps64[sold_round].sum(axis=0))
 
     def settle(self, x: int, sold_round: npt.NDArray[np.bool_]) -> bool:
         """Remove the sold robots; ``True`` when every unsold wage is now 0."""
@@ -568,3 +554,80 @@ class _Auction:
                 break
         out.rounds = self.R
         return out
+
+
+class _Bids:
+    """The open bids of one award round, the largest current surplus first.
+
+    A lazy priority queue: a task has at most one open bid; :meth:`answer` takes the next
+    one and counts its answers, and a re-bid re-enters with its new surplus.
+    """
+
+    def __init__(self, out: Outcome, finder: BundleFinder, u: list[Fraction]) -> None:
+        self.out, self.finder, self.u = out, finder, u
+        self.heap: list[tuple[Fraction, int]] = []  # (cost - u[j], j): ties to the lowest j
+        self.bundles: dict[int, Bundle] = {}
+
+    def make(self, j: int, b: Bundle, cost: Fraction) -> None:
+        """Task ``j`` bids ``cost`` for its bundle ``b``: one message per needed service."""
+        self.bundles[j] = b
+        heapq.heappush(self.heap, (cost - self.u[j], j))
+        bid_messages(self.out, self.finder, j)
+
+    def answer(self) -> tuple[int, Bundle] | None:
+        """The next bid ``(task, bundle)``, its answers counted; ``None`` when none is open."""
+        if not self.heap:
+            return None
+        _, j = heapq.heappop(self.heap)
+        n_msg = len(self.finder.need[j])
+        self.out.direct(n_msg, n_msg * HEADER_BYTES)  # the answers
+        return j, self.bundles[j]
+
+
+class _Auction(DescendingAuction):
+    """The prefix-rank engine: a task's first affordable round read off its greedy basis.
+
+    See this module's docstring; :meth:`first_round` is O(1) but for the lazy rebuild of a
+    basis after one of its robots is sold.
+    """
+
+    def __init__(self, mission: Mission, eps: Fraction, schedule: str) -> None:
+        super().__init__(mission, eps, schedule)
+        if self.n == 0 or self.m == 0:
+            return
+        self.need_low = self._need_low()
+        self.bases = _Bases(self.finder, self.caps)
+
+    def _need_low(self) -> list[int]:
+        """Per task, the rank ``T`` its greedy basis needs at the low wage to be affordable.
+
+        ``a_star[j]``: the first sweep level ``a`` at which ``k wage(a) <= u[j]``.  Under
+        ``max-wage`` the task first affords a bundle inside sweep ``a_star - 1``, when its
+        cheapest bundle has at most ``floor((u - k lo) / (hi - lo))`` high-wage robots, i.e.
+        when at least ``T = k - that`` of its basis robots have the low wage (0 when
+        ``a_star`` is 0 or the task needs no robot).
+        """
+        k, u = self.k, self.u
+        need_low = [0] * self.m
+        for j, a in enumerate(self.a_star):
+            if a == 0 or k[j] == 0:
+                continue
+            hi, lo = self.wage(a - 1), self.wage(a)
+            high = math.floor((u[j] - k[j] * lo) / (hi - lo))
+            need_low[j] = k[j] - high
+            assert 1 <= need_low[j] <= k[j]
+        return need_low
+
+    def first_round(self, j: int) -> int | None:
+        """First round > R in which task j can afford a bundle (None: never)."""
+        basis = self.bases.get(j, self.pools, self.unsold)
+        if basis is None:
+            return None
+        a = self.a_star[j]
+        if self.uniform:
+            return max(self.R + 1, a)
+        if a == 0:
+            return self.R + 1
+        q = self.alive.size
+        x = (a - 1) * q + int(self.pos[basis[self.need_low[j] - 1]]) + 1
+        return self.R + max(1, x - self.total)

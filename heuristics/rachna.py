@@ -390,7 +390,73 @@ class _Checkpoint:
     service: npt.NDArray[np.int64]
     dead: npt.NDArray[np.bool_]
     wage: npt.NDArray[np.int64]
-    counts: tuple[int, int, int, int, int]
+    counts: tuple[int, int, int, int, int, int, int]
+
+    def same_but_wages(self, out: _Outcome, dead: npt.NDArray[np.bool_]) -> bool:
+        """Whether the holders, services and given-up tasks are again this checkpoint's
+        (the wages may have risen).  O(n + m)."""
+        return (
+            np.array_equal(out.task, self.holder)
+            and np.array_equal(out.service, self.service)
+            and np.array_equal(dead, self.dead)
+        )
+
+
+@dataclass(frozen=True)
+class _Holdings:
+    """The arrays the rounds update in place that a checkpoint reads: the wages (units of
+    eps), each task's robots, which tasks are staffed and which gave up (``dead``)."""
+
+    wage: npt.NDArray[np.int64]
+    members: list[npt.NDArray[np.int64]]
+    staffed: npt.NDArray[np.bool_]
+    dead: npt.NDArray[np.bool_]
+
+
+@dataclass(frozen=True)
+class _RoundLimit:
+    """What bounds the rounds of one run: ``max_rounds``, what proves that the run needs
+    more (:func:`_rounds_left`) and the error that says so (:meth:`too_many`).
+
+    ``once``: a robot is sold at most once a round (the simultaneous schedule), so its
+    wage rises by at most one unit a round; otherwise (sequential) by at most one unit per
+    task that can buy it.
+    """
+
+    max_rounds: int
+    eps: Fraction
+    utilities: list[Fraction]
+    finder: BundleFinder
+    caps64: npt.NDArray[np.int64]
+    reqs: npt.NDArray[np.int64]
+    budget: list[int]
+    once: bool
+
+    def too_many(self) -> MissionError:
+        """The error for a run that needs more than ``max_rounds`` rounds."""
+        u_max = max(self.utilities, default=Fraction(0))
+        return _too_many_rounds(self.max_rounds, self.finder.n, u_max, self.eps)
+
+
+def _checkpoint(out: _Outcome, holdings: _Holdings, limit: _RoundLimit) -> _Checkpoint:
+    """The state at the end of round ``out.rounds``, for Brent's cycle detection.
+
+    From round ``_PROVE_FROM`` on it first tries to prove that the run needs more than
+    ``limit.max_rounds`` rounds, and raises :meth:`_RoundLimit.too_many` if so (see
+    :func:`rachna_dt` Notes, Termination).  O(n + m), plus :func:`_rounds_left`.
+    """
+    if out.rounds >= _PROVE_FROM:
+        rest = _rounds_left(limit, holdings)
+        if rest is not None and out.rounds + rest > limit.max_rounds:
+            raise limit.too_many()
+    return _Checkpoint(
+        out.rounds,
+        out.task.copy(),
+        out.service.copy(),
+        holdings.dead.copy(),
+        holdings.wage.copy(),
+        out.counts(),
+    )
 
 
 def _core(
@@ -447,29 +513,17 @@ def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) ->
     dead_work = sum(match_work[j] for j in np.flatnonzero(dead).tolist())
     pools = finder.robots_with
     next_round = list(range(m))
-
-    def too_many() -> MissionError:
-        return _too_many_rounds(max_rounds, n, max(utilities, default=Fraction(0)), eps)
-
-    def checkpoint() -> _Checkpoint:
-        if out.rounds >= _PROVE_FROM:
-            rest = _rounds_left(
-                finder, caps64, reqs, budget, wage, members, staffed, dead, once=False
-            )
-            if rest is not None and out.rounds + rest > max_rounds:
-                raise too_many()
-        return _Checkpoint(
-            out.rounds, holder.copy(), out.service.copy(), dead.copy(), wage.copy(), out.counts()
-        )
+    holdings = _Holdings(wage, members, staffed, dead)
+    limit = _RoundLimit(max_rounds, eps, utilities, finder, caps64, reqs, budget, once=False)
 
     # Brent's cycle detection on the state at the end of a round; ``log`` holds the
     # purchases (task, price in units) made since the checkpoint.
-    check = checkpoint()
+    check = _checkpoint(out, holdings, limit)
     span = 1
     log: list[tuple[int, int]] = []
     while True:
         if out.rounds >= max_rounds:
-            raise too_many()
+            raise limit.too_many()
         out.rounds += 1
         out.work += dead_work
         acted = False
@@ -536,13 +590,8 @@ def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) ->
         # every unstaffed live task acts next round (those robbed late were queued above)
         live = {j for j in range(m) if not staffed[j] and not dead[j]}
         next_round = sorted(set(next_round) | live)
-        if (
-            jump
-            and np.array_equal(holder, check.holder)
-            and np.array_equal(out.service, check.service)
-            and np.array_equal(dead, check.dead)
-        ):
-            if _jump(out, check, wage, log, finder, budget, max_rounds, too_many):
+        if jump and check.same_but_wages(out, dead):
+            if _jump(out, check, wage, log, finder, budget, max_rounds, limit.too_many):
                 span = 1
             else:
                 continue
@@ -550,7 +599,7 @@ def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) ->
             span *= 2
         else:
             continue
-        check = checkpoint()
+        check = _checkpoint(out, holdings, limit)
         log = []
     return out
 
@@ -585,29 +634,17 @@ def _simultaneous(
     market = _Market(finder)
     ledger = Ledger(market, wage, held, _services) if fast else None
     taken = np.zeros(n, dtype=bool)  # scratch: robots awarded in the current round
-
-    def too_many() -> MissionError:
-        return _too_many_rounds(max_rounds, n, max(utilities, default=Fraction(0)), eps)
-
-    def checkpoint() -> _Checkpoint:
-        if out.rounds >= _PROVE_FROM:
-            rest = _rounds_left(
-                finder, caps64, reqs, budget, wage, members, staffed, dead, once=True
-            )
-            if rest is not None and out.rounds + rest > max_rounds:
-                raise too_many()
-        return _Checkpoint(
-            out.rounds, holder.copy(), service.copy(), dead.copy(), wage.copy(), out.counts()
-        )
+    holdings = _Holdings(wage, members, staffed, dead)
+    limit = _RoundLimit(max_rounds, eps, utilities, finder, caps64, reqs, budget, once=True)
 
     # Brent's cycle detection on the state at the end of a round; ``log`` holds the bids
     # of every round since the checkpoint.
-    check = checkpoint()
+    check = _checkpoint(out, holdings, limit)
     span = 1
     log: list[list[_Bid]] = []
     while True:
         if out.rounds >= max_rounds:
-            raise too_many()
+            raise limit.too_many()
         out.rounds += 1
         out.work += dead_work
         bids: list[_Bid] = []
@@ -668,13 +705,8 @@ def _simultaneous(
             ledger.update(moved)
         if jump:
             log.append(bids)
-        if (
-            jump
-            and np.array_equal(holder, check.holder)
-            and np.array_equal(service, check.service)
-            and np.array_equal(dead, check.dead)
-        ):
-            if _leap(out, check, wage, log, market, budget, max_rounds, too_many):
+        if jump and check.same_but_wages(out, dead):
+            if _leap(out, check, wage, log, market, budget, max_rounds, limit.too_many):
                 span = 1
                 if ledger is not None:
                     ledger.rebuild()
@@ -684,7 +716,7 @@ def _simultaneous(
             span *= 2
         else:
             continue
-        check = checkpoint()
+        check = _checkpoint(out, holdings, limit)
         log = []
     return out
 
@@ -969,34 +1001,24 @@ def _jump(
     return True
 
 
-def _rounds_left(
-    finder: BundleFinder,
-    caps64: npt.NDArray[np.int64],
-    reqs: npt.NDArray[np.int64],
-    budget: list[int],
-    wage: npt.NDArray[np.int64],
-    members: list[npt.NDArray[np.int64]],
-    staffed: npt.NDArray[np.bool_],
-    dead: npt.NDArray[np.bool_],
-    once: bool,
-) -> int | None:
+def _rounds_left(limit: _RoundLimit, holdings: _Holdings) -> int | None:
     """A proven lower bound on the rounds still to come, or ``None`` (no bound found).
 
     See :func:`rachna_dt` Notes (Termination): if the tasks not given up cannot all be
     staffed at once, the auction ends only after one of them gives up, and task ``j``
     cannot give up while the price of a bundle it holds or can buy stays within its budget.
-    ``once``: a robot is sold at most once a round (the simultaneous schedule), so its
-    wage rises by at most one unit a round; otherwise by at most one unit per task that
-    can buy it.  O(n S + K S) for the flow, plus one bundle search per unstaffed task when
-    it fails.
+    How fast a wage can rise is ``limit.once``'s (:class:`_RoundLimit`).  O(n S + K S) for
+    the flow, plus one bundle search per unstaffed task when it fails.
     """
+    finder, caps64, reqs, budget = limit.finder, limit.caps64, limit.reqs, limit.budget
+    wage, members, staffed, dead = holdings.wage, holdings.members, holdings.staffed, holdings.dead
     live = np.flatnonzero(~dead)
     if live.size == 0 or staffed[live].all():  # all staffed: jointly staffable
         return None
     demand = reqs[live].sum(axis=0)  # live tasks need k_j <= n robots each: no overflow
     if _staffable(finder, demand):
         return None
-    if once:
+    if limit.once:
         rise = np.ones(caps64.shape[0], dtype=np.int64)
     else:  # a robot's wage rises by at most one per task that can buy it, per round
         tasks_per_service = (reqs[live] > 0).sum(axis=0).astype(np.int64)

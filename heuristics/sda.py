@@ -6,26 +6,17 @@ short description, with the semantics and every open choice stated in :func:`sda
 
 from __future__ import annotations
 
-import heapq
-import math
 import time
 from fractions import Fraction
 
 import numpy as np
-import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError, require_mission
-from heuristics._auction import (
-    ENTRY_BYTES,
-    HEADER_BYTES,
-    BundleFinder,
-    check_eps,
-    check_order,
-)
+from heuristics._auction import check_eps, check_order
 from heuristics._run import Run, seed_label
+from heuristics._sda_fast import DescendingAuction
 from heuristics._sda_fast import Outcome as _Outcome
-from heuristics._sda_fast import Touched as _Touched
-from heuristics._sda_fast import bid_messages as _bid_messages
+from heuristics._sda_fast import Touched as _Touched  # noqa: F401 - the tests import it here
 from heuristics._sda_fast import core as _core
 from heuristics.communication import comm_model, media_table, table_cost
 
@@ -199,222 +190,48 @@ def sda(
 def _core_literal(mission: Mission, eps: Fraction, schedule: str) -> _Outcome:
     """The previous engine, kept as the reference :func:`_core` is tested equal to.
 
-    Same auction (:func:`sda` Notes); a task's first affordable round is found by a binary
-    search of ``log2 q`` matchings instead of the prefix ranks of :mod:`heuristics._sda_fast`.
+    Same auction (:func:`sda` Notes) and the same rounds, bids and awards
+    (:class:`heuristics._sda_fast.DescendingAuction`); only a task's first affordable round
+    is found differently: by a binary search of ``log2 q`` matchings
+    (:class:`_BinarySearchAuction`) instead of the prefix ranks of
+    :mod:`heuristics._sda_fast`.
     """
-    caps, reqs = mission.capabilities, mission.requirements
-    n = caps.shape[0]
-    m = reqs.shape[0]
-    out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
-    if n == 0 or m == 0:
-        return out
-    uniform = schedule == "uniform"
-    finder = BundleFinder(caps, reqs)
-    u = [Fraction(float(x)) for x in mission.utilities.tolist()]
-    w0 = max(u) + eps
-    D = math.ceil(w0 / eps)  # decrements that bring a wage to 0
+    return _BinarySearchAuction(mission, eps, schedule).run()
 
-    def wage(d: int) -> Fraction:
-        return max(Fraction(0), w0 - d * eps)
 
-    k = finder.k
-    # the first sweep level a at which k wage(a) <= u[j]: static per task
-    a_star = [min(D, max(0, math.ceil((k[j] * w0 - u[j]) / (k[j] * eps)))) for j in range(m)]
-    by_level = sorted(range(m), key=lambda j: (a_star[j], j))
+class _BinarySearchAuction(DescendingAuction):
+    """The reference engine: a task's first affordable round by a binary search on the clock.
 
-    needmask = reqs > 0  # m x S
-    caps64 = caps.astype(np.int64)
-    need64 = needmask.astype(np.int64)
-    touched = _Touched(needmask)
-    rows = finder.reach.copy()  # unsold robots having one of the task's services
-    # the literal work of a round, sum rows[j] k[j], in int64 unless that could overflow
-    k_arr = np.array(k, dtype=np.int64 if n * sum(k) < 2**62 else object)
-    staffed = np.zeros(m, dtype=bool)
-    dead = ~finder.possible  # pruned: never staffable, never searched
-    unsold = np.ones(n, dtype=bool)
-    alive = np.arange(n, dtype=np.int64)  # unsold robots, ascending
-    pos = np.arange(n, dtype=np.int64)  # position in ``alive``; -1 when sold
-    pools = [r.copy() for r in finder.robots_with]
-    A = need64.sum(axis=0)  # unstaffed tasks needing each service
-    R = 0  # rounds completed
-    total = 0  # max-wage: decrements among the unsold robots (sum of their d)
+    Inside the task's crossing sweep the cheapest cost only falls as the clock runs, so the
+    first affordable clock is found by bisection, one matching (:meth:`_min_cost`) per step.
+    """
 
-    def clock(t: int) -> int:
-        """Decrement clock at round t (> R): decrements under max-wage, rounds otherwise."""
-        if uniform:
-            return min(t, D)
-        return min(alive.size * D, total + (t - R))
-
-    def weights_at(x: int, robots: npt.NDArray[np.int64]) -> tuple[Fraction, Fraction, npt.NDArray]:
-        """(high wage, low wage, 0/1 weight of ``robots`` = has the high wage) at clock x."""
-        if uniform:
-            return wage(x), wage(x), np.zeros(robots.size, dtype=np.int64)
-        # x = a q + r: the robots at positions < r have had a + 1 decrements, the others a
-        a, r = divmod(x, alive.size)
-        hi, lo = wage(a), wage(a + 1)
-        if hi == lo:
-            return hi, lo, np.zeros(robots.size, dtype=np.int64)
-        return hi, lo, (pos[robots] >= r).astype(np.int64)
-
-    wfull = np.zeros(n, dtype=np.int64)
-
-    def min_cost(j: int, x: int) -> Fraction | None:
-        hi, lo, wt = weights_at(x, alive)
-        wfull[alive] = wt
-        b = finder.cheapest(j, pools, wfull)
+    def _min_cost(self, j: int, x: int) -> Fraction | None:
+        """Task ``j``'s cheapest complete bundle cost at clock ``x`` (``None``: no bundle)."""
+        hi, lo, wt = self.weights_at(x)
+        self.wfull[self.alive] = wt
+        b = self.finder.cheapest(j, self.pools, self.wfull)
         if b is None:
             return None
-        return k[j] * lo + (hi - lo) * b.weight
+        return self.k[j] * lo + (hi - lo) * b.weight
 
-    def first_round(j: int) -> int | None:
+    def first_round(self, j: int) -> int | None:
         """First round > R in which task j can afford a bundle (None: never)."""
-        zero = np.zeros(n, dtype=np.int64)
-        if finder.cheapest(j, pools, zero) is None:
+        zero = np.zeros(self.n, dtype=np.int64)
+        if self.finder.cheapest(j, self.pools, zero) is None:
             return None
-        if uniform:
-            return max(R + 1, a_star[j])
-        q = alive.size
-        hi_x = a_star[j] * q  # all robots at level a_star: affordable
-        lo_x = max(total, (a_star[j] - 1) * q)  # not affordable
+        a_star = self.a_star[j]
+        if self.uniform:
+            return max(self.R + 1, a_star)
+        q = self.alive.size
+        hi_x = a_star * q  # all robots at level a_star: affordable
+        lo_x = max(self.total, (a_star - 1) * q)  # not affordable
         hi_x = max(hi_x, lo_x + 1)
         while hi_x - lo_x > 1:
             mid = (lo_x + hi_x) // 2
-            c = min_cost(j, mid)
-            if c is not None and c <= u[j]:
+            c = self._min_cost(j, mid)
+            if c is not None and c <= self.u[j]:
                 hi_x = mid
             else:
                 lo_x = mid
-        return R + (hi_x - total)
-
-    def lower_bound(j: int) -> int:
-        if uniform:
-            return max(R + 1, a_star[j])
-        q = alive.size
-        return R + max(1, (a_star[j] - 1) * q + 1 - total)
-
-    def quiet(t_from: int, t_to: int) -> None:
-        """Account rounds t_from..t_to (inclusive): decrement notices and literal work."""
-        if t_to < t_from:
-            return
-        nr = t_to - t_from + 1
-        unst = ~staffed
-        out.work += nr * int((rows[unst] * k_arr[unst]).sum())
-        if uniform:
-            dec_rounds = max(0, min(t_to, D) - t_from + 1)
-            sizes = np.array([p.size for p in pools], dtype=np.int64)
-            has = sizes > 0
-            out.messages += dec_rounds * int(A[has].sum())
-            out.bytes += dec_rounds * int((A * (HEADER_BYTES + ENTRY_BYTES * sizes))[has].sum())
-            cast = has & (A > 0)  # one broadcast per service agent with a task to tell
-            out.cast_messages += dec_rounds * int(cast.sum())
-            out.cast_bytes += dec_rounds * int((HEADER_BYTES + ENTRY_BYTES * sizes)[cast].sum())
-            return
-        q = alive.size
-        x0 = min(q * D, total + (t_from - 1 - R))
-        x1 = min(q * D, total + (t_to - R))
-        if x1 <= x0:
-            return
-        wt = caps64[alive] @ A  # notices per decrement of each unsold robot
-        pref = np.concatenate(([0], np.cumsum(wt)))
-        # broadcast: one notice per service agent of the robot with a task to tell
-        pref_cast = np.concatenate(([0], np.cumsum(caps64[alive] @ (A > 0).astype(np.int64))))
-
-        def upto(x: int, prefix: npt.NDArray[np.int64]) -> int:
-            full, rest = divmod(x, q)
-            return full * int(prefix[q]) + int(prefix[rest])
-
-        msgs = upto(x1, pref) - upto(x0, pref)
-        out.messages += msgs
-        out.bytes += msgs * (HEADER_BYTES + ENTRY_BYTES)
-        casts = upto(x1, pref_cast) - upto(x0, pref_cast)
-        out.cast_messages += casts
-        out.cast_bytes += casts * (HEADER_BYTES + ENTRY_BYTES)
-
-    while alive.size and not staffed.all():
-        # ---- find the next award round and its bidders
-        best: int | None = None
-        bidders: list[int] = []
-        for j in by_level:
-            if staffed[j] or dead[j]:
-                continue
-            if best is not None and lower_bound(j) > best:
-                break
-            t = first_round(j)
-            if t is None:
-                dead[j] = True
-            elif best is None or t < best:
-                best, bidders = t, [j]
-            elif t == best:
-                bidders.append(j)
-        if best is None:  # nobody will ever bid: the wages run down to 0
-            end = R + (D - R if uniform else alive.size * D - total)
-            quiet(R + 1, end)
-            R = max(R, end)
-            break
-        quiet(R + 1, best)
-        x = clock(best)
-        hi, lo, wt = weights_at(x, alive)
-        wfull[alive] = wt
-        R = best
-        out.iterations += 1
-        it = out.iterations
-        sold_round = np.zeros(n, dtype=bool)
-        heap: list[tuple[Fraction, int, int]] = []
-        bundles = {}
-        for j in sorted(bidders):
-            b = finder.cheapest(j, pools, wfull)
-            assert b is not None
-            bundles[j] = b
-            cost = k[j] * lo + (hi - lo) * b.weight
-            heapq.heappush(heap, (cost - u[j], j, 0))
-            _bid_messages(out, finder, j)
-        while heap:
-            _, j, _ = heapq.heappop(heap)
-            b = bundles[j]
-            n_msg = len(finder.need[j])
-            out.direct(n_msg, n_msg * HEADER_BYTES)  # the answers
-            if sold_round[b.robots].any():  # rejected: recompute on what is left
-                out.work += int(rows[j]) * k[j]
-                nb = finder.cheapest(j, pools, wfull)
-                if nb is None:
-                    dead[j] = True
-                    continue
-                cost = k[j] * lo + (hi - lo) * nb.weight
-                if cost <= u[j]:
-                    bundles[j] = nb
-                    heapq.heappush(heap, (cost - u[j], j, 0))
-                    _bid_messages(out, finder, j)
-                continue
-            staffed[j] = True
-            sold_round[b.robots] = True
-            out.task[b.robots] = j
-            out.service[b.robots] = b.services
-            for r, s in sorted(zip(b.robots.tolist(), b.services.tolist(), strict=True)):
-                out.moves.append((it, r, j, s))
-            A -= need64[j]
-            rows -= touched(caps[b.robots])
-            for s in np.flatnonzero(caps[b.robots].any(axis=0)).tolist():
-                pools[s] = pools[s][~sold_round[pools[s]]]
-        # sold notices to the tasks still unstaffed
-        sold_per_service = caps64[sold_round].sum(axis=0)
-        has = sold_per_service > 0
-        out.messages += int(A[has].sum())
-        out.bytes += int((A * (HEADER_BYTES + ENTRY_BYTES * sold_per_service))[has].sum())
-        cast = has & (A > 0)
-        out.cast_messages += int(cast.sum())
-        out.cast_bytes += int((HEADER_BYTES + ENTRY_BYTES * sold_per_service)[cast].sum())
-        unsold &= ~sold_round
-        if not uniform:  # decrements of the robots left: a + (1 if position < r)
-            a, r = divmod(x, alive.size)
-            left = alive[~sold_round[alive]]
-            total = a * left.size + int((pos[left] < r).sum())
-        alive = np.flatnonzero(unsold).astype(np.int64)
-        pos[:] = -1
-        pos[alive] = np.arange(alive.size)
-        if uniform:
-            if x >= D:
-                break
-        elif alive.size and total >= alive.size * D:
-            break
-    out.rounds = R
-    return out
+        return self.R + (hi_x - self.total)
