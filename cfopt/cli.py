@@ -485,24 +485,41 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         type=_positive_number,
         default=None,
         metavar="SEC",
-        help="with --network: simulated seconds after which the run is cut (default 3600)",
+        help="with --network: simulated seconds after which the run is cut (default 3600; "
+        "real seconds with --backend mpi)",
+    )
+    sub.add_argument(
+        "--backend",
+        choices=("sim", "mpi"),
+        default="sim",
+        help="with --network: sim (default) runs the agents in the discrete-event simulator; "
+        "mpi runs them as real MPI processes (launches mpiexec; needs the mpi extra: "
+        'pip install "cfopt[mpi]"; without --network the network is complete)',
+    )
+    sub.add_argument(
+        "--ranks",
+        type=_whole_number(1),
+        default=None,
+        metavar="K",
+        help="with --backend mpi: MPI processes, robots split among them in blocks "
+        "(default 2, at most one per robot)",
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
 
     _add_output_options(sub)
 
     def run(args: argparse.Namespace) -> int:
-        import proofs
         from heuristics.registry import get_algorithm
 
         algorithm = get_algorithm(args.algorithm)
-        if args.network is None and args.time_limit is not None:
+        distributed = args.network is not None or args.backend == "mpi"
+        if not distributed and args.time_limit is not None:
             raise MissionError("--time-limit: only for distributed runs (give --network)")
         m = load_mission(args.mission)
         _check_output_free(args)
         options = _auction_options(args)
         model = _model_options(args)
-        if args.network is not None:
+        if distributed:
             if options:
                 raise MissionError("--eps and --max-rounds: not for distributed runs")
             if model:
@@ -510,40 +527,50 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
                     "--medium and --encoding: not for distributed runs (the network spec's "
                     "medium= decides)"
                 )
-            result = _simulated(args, m)
+            result = _distributed(args, m)
         else:
+            if args.ranks is not None:
+                raise MissionError("--ranks: only with --backend mpi")
             result = algorithm(m, seed=args.seed, order=args.order, **options, **model)
-        a = result.assignment
-        out = result.to_dict(m)
-        assignment = out.pop("assignment")
-        out["nash_stable"] = proofs.is_nash_stable(m, a)
-        # strict pairwise stability (the seed's Theorem 1) coincides with Nash stability
-        # under the seed's reward; the pareto notion is the informative one, so both
-        out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
-        out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
-        out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
-        out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
-        out["assignment"] = assignment
-        assignment_json = a.to_json(m)
-        _save_assignment(assignment_json, args)
-        if args.json:
-            emit_json(out)
-            return EXIT_OK
-        summary = [
-            f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
-            f"({out['percent_utility']:.2f}%), {plural(result.iterations, 'iteration')}, "
-            f"{plural(result.rounds, 'round')}, {plural(result.messages, 'message')}, "
-            f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s",
-            f"stability: Nash {_yes_no(out['nash_stable'])}, "
-            f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
-            f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
-        ]
-        if result.network is not None:
-            summary += _network_summary(result.network)
-        _print_result(summary, assignment_json, args)
-        return EXIT_OK
+        return finish_run(args, m, result)
 
     return run
+
+
+def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
+    """What ``cfopt run`` prints and writes once ``result`` (a heuristics.Run) is there:
+    the stability verdicts, the summary or ``--json``, and ``-o FILE``."""
+    import proofs
+
+    a = result.assignment
+    out = result.to_dict(m)
+    assignment = out.pop("assignment")
+    out["nash_stable"] = proofs.is_nash_stable(m, a)
+    # strict pairwise stability (the seed's Theorem 1) coincides with Nash stability
+    # under the seed's reward; the pareto notion is the informative one, so both
+    out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
+    out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
+    out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
+    out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
+    out["assignment"] = assignment
+    assignment_json = a.to_json(m)
+    _save_assignment(assignment_json, args)
+    if args.json:
+        emit_json(out)
+        return EXIT_OK
+    summary = [
+        f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
+        f"({out['percent_utility']:.2f}%), {plural(result.iterations, 'iteration')}, "
+        f"{plural(result.rounds, 'round')}, {plural(result.messages, 'message')}, "
+        f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s",
+        f"stability: Nash {_yes_no(out['nash_stable'])}, "
+        f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
+        f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
+    ]
+    if result.network is not None:
+        summary += _network_summary(result.network)
+    _print_result(summary, assignment_json, args)
+    return EXIT_OK
 
 
 _NETWORK_HELP = (
@@ -576,11 +603,24 @@ def _model_options(args: argparse.Namespace) -> dict[str, Any]:
     return {k: v for k in ("medium", "encoding") if (v := getattr(args, k)) is not None}
 
 
-def _simulated(args: argparse.Namespace, mission: Mission) -> Any:
+def _distributed(args: argparse.Namespace, mission: Mission) -> Any:
     from heuristics.simulate import DEFAULT_TIME_LIMIT, simulate
 
     if args.order != "index":
         raise MissionError("--order: a distributed run has no robot order (the clocks decide)")
+    if args.backend == "mpi":
+        from heuristics.mpi import mpi_run
+
+        return mpi_run(
+            mission,
+            args.algorithm,
+            args.network or "complete",
+            ranks=2 if args.ranks is None else args.ranks,
+            seed=args.seed,
+            time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
+        )
+    if args.ranks is not None:
+        raise MissionError("--ranks: only with --backend mpi")
     return simulate(
         mission,
         args.algorithm,
@@ -592,10 +632,11 @@ def _simulated(args: argparse.Namespace, mission: Mission) -> Any:
 
 def _network_summary(report: Any) -> list[str]:
     lost = report.losses / max(report.receptions + report.losses, 1)
+    clock = "simulated" if report.transport is None else "wall-clock"
     if report.cut:
-        ending = f"cut at the time limit ({report.simulated_seconds:g} s simulated)"
+        ending = f"cut at the time limit ({report.simulated_seconds:g} s {clock})"
     else:
-        ending = f"robots stopped by {report.simulated_seconds:.3f} s simulated"
+        ending = f"robots stopped by {report.simulated_seconds:.3f} s {clock}"
     if report.converged:
         state = f"converged at {report.convergence_seconds:.3f} s"
     elif report.beliefs_agree:
@@ -609,6 +650,18 @@ def _network_summary(report: Any) -> list[str]:
         f"  {plural(report.transmissions, 'transmission')}, "
         f"{plural(report.receptions, 'reception')}, {lost:.1%} lost, "
         f"{report.bytes / 1e6:.3f} MB, {plural(report.proposals, 'proposal')}",
+        *_transport_summary(report.transport),
+    ]
+
+
+def _transport_summary(transport: Any) -> list[str]:
+    if transport is None:
+        return []
+    return [
+        f"  MPI: {plural(transport.ranks, 'rank')} ({transport.library}), "
+        f"{transport.wall_seconds:.3f} s wall, {plural(transport.wire_messages, 'message')} "
+        f"and {transport.wire_bytes / 1e6:.3f} MB on the wire, "
+        f"{plural(transport.missed_ticks, 'missed tick')}"
     ]
 
 

@@ -121,6 +121,10 @@ class NetworkReport:
         All robots ended on one belief.
     cut : bool
         The simulated time limit ended the run.
+    transport : heuristics.mpi.TransportReport or None
+        ``None`` for a simulated run.  A run of real processes (``backend="mpi"``) fills
+        it with what the processes measured (wall time, messages and bytes on the wire);
+        its time fields above are then measured wall-clock seconds, not simulated ones.
     """
 
     spec: str
@@ -140,11 +144,29 @@ class NetworkReport:
     converged: bool
     beliefs_agree: bool
     cut: bool
+    transport: Any = None
+
+    @classmethod
+    def on(cls, spec: NetworkSpec, diameter: int, **measured: Any) -> NetworkReport:
+        """The report of a run on ``spec``'s network (of diameter ``diameter``): the
+        network's description from the spec, the ``measured`` fields as given."""
+        return cls(
+            spec=spec.to_text(),
+            topology=spec.topology,
+            diameter=int(diameter),
+            latency=spec.latency.to_text(),
+            loss=spec.loss.to_text(),
+            medium=spec.medium,
+            **measured,
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready fields (the ``network`` object of ``cfopt run --json``)."""
+        """JSON-ready fields (the ``network`` object of ``cfopt run --json``); a run of
+        real processes adds ``transport``."""
         out = asdict(self)
         out["d_G"] = out.pop("diameter")
+        if out["transport"] is None:
+            del out["transport"]
         return out
 
 
@@ -366,6 +388,12 @@ class Protocol:
     pairwise = False
 
     def make_agents(self, sim: _Simulation) -> list[Any]:
+        """Every robot's agent, robot 0 first."""
+        return [self.make_agent(sim, i) for i in range(sim.n)]
+
+    def make_agent(self, sim: Any, robot: int) -> Any:
+        """Robot ``robot``'s agent (``sim`` gives ``problem``, ``quiet_limit`` and
+        ``network``): the MPI transport builds only the robots of its rank."""
         raise NotImplementedError
 
     def encode(self, belief: Belief, agent: Any) -> bytes:
@@ -382,8 +410,8 @@ class GrapeSProtocol(Protocol):
 
     name = "grape-s"
 
-    def make_agents(self, sim: _Simulation) -> list[Any]:
-        return [GrapeSAgent(i, sim.problem, sim.quiet_limit) for i in range(sim.n)]
+    def make_agent(self, sim: Any, robot: int) -> Any:
+        return GrapeSAgent(robot, sim.problem, sim.quiet_limit)
 
     def final(self, sim: _Simulation, belief: Belief) -> bool:
         return sim.problem.stable(belief, capped=False)
@@ -420,9 +448,8 @@ class PairGrapeSProtocol(GrapeSProtocol):
     name = "pair-grape-s"
     pairwise = True
 
-    def make_agents(self, sim: _Simulation) -> list[Any]:
-        hops = sim.network.hops
-        return [PairGrapeSAgent(i, sim.problem, sim.quiet_limit, hops) for i in range(sim.n)]
+    def make_agent(self, sim: Any, robot: int) -> Any:
+        return PairGrapeSAgent(robot, sim.problem, sim.quiet_limit, sim.network.hops)
 
     def final(self, sim: _Simulation, belief: Belief) -> bool:
         return pairwise_plan(sim.problem, belief) is None
@@ -433,9 +460,8 @@ class PairGrapeSChainProtocol(PairGrapeSProtocol):
 
     name = "pair-grape-s-chain"
 
-    def make_agents(self, sim: _Simulation) -> list[Any]:
-        hops = sim.network.hops
-        return [PairGrapeSChainAgent(i, sim.problem, sim.quiet_limit, hops) for i in range(sim.n)]
+    def make_agent(self, sim: Any, robot: int) -> Any:
+        return PairGrapeSChainAgent(robot, sim.problem, sim.quiet_limit, sim.network.hops)
 
     def final(self, sim: _Simulation, belief: Belief) -> bool:
         return chain_plan(sim.problem, belief) is None
@@ -534,7 +560,52 @@ def _protocol(algorithm: str, options: Mapping[str, Any] | None = None) -> Proto
     )
 
 
-class _Simulation:
+class _Ticking:
+    """What every transport does alike at a clocked agent's tick (the simulator's
+    :class:`_Simulation` and the MPI transport's rank).  Uses ``agents``, ``inflight``,
+    ``inbox``, ``problem``, ``work``, ``stopped``, ``key_r`` and ``key_tid``."""
+
+    agents: Any
+    inflight: _InFlight
+    inbox: Any
+    problem: Problem
+    work: int
+    stopped: npt.NDArray[np.bool_]
+    key_r: npt.NDArray[np.int64]
+    key_tid: npt.NDArray[np.int64]
+
+    def _agent_tick(self, i: int, now: int) -> tuple[Belief, tuple[int, int, int], list[Any]]:
+        """Robot ``i``'s agent ticks on the newest belief and the direct messages that
+        arrived strictly before ``now``; returns its belief, its key before the tick and
+        its direct sends."""
+        self.inflight.retire(now)
+        received = self.inflight.newest(i, now)
+        inbox = self._take(i, now)
+        agent = self.agents[i]
+        before = agent.belief.key
+        belief, sends = agent.tick(now, received, inbox)
+        self.work += int(self.problem.examined[i])
+        return belief, before, sends
+
+    def _take(self, i: int, now: int) -> list[Any]:
+        box = self.inbox[i]
+        if not box:
+            return []
+        ready = [message for arrival, message in box if arrival < now]
+        if ready:
+            self.inbox[i] = [(a, m) for a, m in box if a >= now]
+        return ready
+
+    def _can_change(
+        self, belief: Belief, receivers: npt.NDArray[np.int64]
+    ) -> npt.NDArray[np.bool_]:
+        """Which ``receivers`` ``belief`` can still change: running, holding an older key."""
+        r, tid = _packed(belief.key)
+        kr, kt = self.key_r[receivers], self.key_tid[receivers]
+        return ~self.stopped[receivers] & ((r > kr) | ((r == kr) & (tid > kt)))
+
+
+class _Simulation(_Ticking):
     """One distributed run: the agents, the network, the kernel and the counters."""
 
     def __init__(
@@ -611,12 +682,7 @@ class _Simulation:
         if not agent.clocked:  # a message-driven agent: its clock only starts it
             self._act(i, agent.start(now), now)
             return
-        self.inflight.retire(now)
-        received = self.inflight.newest(i, now)
-        inbox = self._take(i, now)
-        before = agent.belief.key
-        belief, sends = agent.tick(now, received, inbox)
-        self.work += int(self.problem.examined[i])
+        belief, before, sends = self._agent_tick(i, now)
         if belief.key != before:
             self._observe(i, before, belief.key, now)
         self._broadcast(i, belief, now, agent)
@@ -637,15 +703,6 @@ class _Simulation:
         if wake is not None and wake != self.waking[i]:
             self.waking[i] = wake
             heapq.heappush(self.heap, (max(wake, now), next(self.seq), _WAKE, i))
-
-    def _take(self, i: int, now: int) -> list[Any]:
-        box = self.inbox[i]
-        if not box:
-            return []
-        ready = [message for arrival, message in box if arrival < now]
-        if ready:
-            self.inbox[i] = [(a, m) for a, m in box if a >= now]
-        return ready
 
     def _observe(self, i: int, before: tuple[int, int, int], after: tuple[int, int, int], now: int):
         held = self.held
@@ -670,9 +727,7 @@ class _Simulation:
         dropped = int(lost.sum())
         self.losses += dropped
         self.receptions += receivers.size - dropped
-        r, tid = _packed(belief.key)
-        kr, kt = self.key_r[receivers], self.key_tid[receivers]
-        useful = ~lost & ~self.stopped[receivers] & ((r > kr) | ((r == kr) & (tid > kt)))
+        useful = ~lost & self._can_change(belief, receivers)
         if useful.any():
             self.inflight.add(belief, receivers[useful], now + delays[useful])
 
@@ -728,13 +783,9 @@ class _Simulation:
         service = np.where(own >= 0, own % S, -1)
         outcome = self.protocol.outcome(self)
         spec = self.spec
-        report = NetworkReport(
-            spec=spec.to_text(),
-            topology=spec.topology,
-            diameter=int(self.network.diameter),
-            latency=spec.latency.to_text(),
-            loss=spec.loss.to_text(),
-            medium=spec.medium,
+        report = NetworkReport.on(
+            spec,
+            self.network.diameter,
             simulated_seconds=self.end / 1e9,
             convergence_seconds=(
                 None if outcome.convergence_ns is None else outcome.convergence_ns / 1e9

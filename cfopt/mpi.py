@@ -1,0 +1,77 @@
+"""``mpiexec -n K python -m cfopt.mpi ALGORITHM MISSION [options]``: one MPI rank of a
+distributed run (what ``cfopt run ... --backend mpi --ranks K`` launches itself).
+
+Every rank reads the mission and runs its share of the robots
+(:func:`heuristics.mpi.run_ranks`); rank 0 prints the run as ``cfopt run`` does (the
+summary, or ``--json``; ``-o FILE`` for the assignment), the other ranks print nothing.
+Use it where the cluster's launcher is given (``srun``, a batch script); it needs the
+``mpi`` extra: ``pip install "cfopt[mpi]"``.  Exit codes as ``cfopt``'s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+import sys
+from collections.abc import Sequence
+
+from cfopt import MissionError
+from cfopt.cli import EXIT_BAD_INPUT, _error, finish_run, load_mission
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m cfopt.mpi",
+        description="One MPI rank of a distributed run (start it with mpiexec -n K).",
+    )
+    parser.add_argument("algorithm", help="grape-s, pair-grape-s or pair-grape-s-chain")
+    parser.add_argument("mission", help="mission JSON file")
+    parser.add_argument(
+        "--network", default="complete", metavar="SPEC", help="as 'cfopt run --network'"
+    )
+    parser.add_argument("--seed", type=int, default=None, metavar="X")
+    parser.add_argument(
+        "--time-limit", type=float, default=None, metavar="SEC", help="real seconds (3600)"
+    )
+    parser.add_argument("--quiet-factor", type=int, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--reward", default="paper", help=argparse.SUPPRESS)
+    parser.add_argument("--result-file", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("-o", "--output", default=None, metavar="FILE")
+    parser.add_argument("--force", action="store_true")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run this rank; returns the exit code."""
+    from heuristics.mpi import run_ranks
+    from heuristics.simulate import DEFAULT_TIME_LIMIT, QUIET_FACTOR
+
+    args = _parser().parse_args(argv)
+    try:
+        mission = load_mission(args.mission)
+        run = run_ranks(
+            mission,
+            args.algorithm,
+            args.network,
+            seed=args.seed,
+            time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
+            quiet_factor=args.quiet_factor or QUIET_FACTOR,
+            reward=args.reward,
+        )
+        if run is None:
+            return 0
+        if args.result_file is not None:
+            with open(args.result_file, "wb") as out:
+                pickle.dump(run, out)
+            return 0
+        return finish_run(args, mission, run)
+    except MissionError as exc:
+        _error(exc.cli_message)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,199 @@
+"""Distributed runs as real MPI processes (``--backend mpi``): the same agents as the
+simulator's, over mpi4py, launched with ``mpiexec``."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cfopt
+import proofs
+from cfopt import GridCell, Mission, MissionError
+from heuristics.simulate import simulate
+
+try:
+    from heuristics.mpi import launcher, mpi_run
+
+    launcher()
+except (ImportError, MissionError) as missing:  # pragma: no cover - CI installs the extra
+    if os.environ.get("CI"):
+        raise RuntimeError(f"CI must install the mpi extra: {missing}") from missing
+    pytest.skip(f"no MPI here ({missing})", allow_module_level=True)
+
+#: Lock-step clocks with a 1 ms period: fast, and move for move the simulator's run.
+LOCKSTEP = "complete period=1ms sync=true"
+#: Pair-GRAPE-S's requests travel hop by hop on a ring, with a fixed latency per hop.
+RING = "ring period=1ms sync=true latency=constant:0.3ms"
+
+
+def mission_of(robots: int, seed: int = 1) -> Mission:
+    return cfopt.generate_mission(robots, 20, 4, 2, seed=seed)
+
+
+def belief_size(n: int, algorithm: str) -> int:
+    """The belief encoder's size, as documented: 16 + 4 n (24 + 4 n with the pass state)."""
+    return (24 if algorithm == "pair-grape-s" else 16) + 4 * n
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+@pytest.mark.parametrize(
+    ("algorithm", "robots", "spec"),
+    [
+        ("grape-s", 20, LOCKSTEP),
+        ("grape-s", 100, LOCKSTEP),
+        ("pair-grape-s", 40, LOCKSTEP),
+        ("pair-grape-s", 40, RING),
+    ],
+)
+def test_lockstep_mpi_runs_are_the_simulators_runs(
+    algorithm: str, robots: int, spec: str, ranks: int
+) -> None:
+    m = mission_of(robots)
+    sim = simulate(m, algorithm, spec, seed=0)
+    run = mpi_run(m, algorithm, spec, ranks=ranks, seed=0)
+    a = run.assignment
+    a.validate(m)  # raises on a robot in a service it lacks or an unknown slot
+    assert proofs.nash_violations(m, a, capped=algorithm == "pair-grape-s") == []
+    assert a.utility(m) == sim.assignment.utility(m)
+    assert np.array_equal(a.task, sim.assignment.task)
+    assert np.array_equal(a.service, sim.assignment.service)
+    assert np.array_equal(run.trajectory, sim.trajectory)
+    assert (run.iterations, run.messages, run.bytes) == (sim.iterations, sim.messages, sim.bytes)
+    assert run.network.beliefs_agree and run.network.converged and not run.network.cut
+    transport = run.network.transport
+    assert transport.ranks == ranks and sum(transport.robots_per_rank) == robots
+    # every message put on the wire was received, decoded and is its encoder's size
+    assert transport.wire_messages == transport.received_messages > 0
+    assert transport.wire_bytes == transport.received_bytes
+    assert dict(run.options)["engine"] == "mpi"
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_wire_bytes_are_the_encoders_sizes(ranks: int) -> None:
+    """On a complete network every tick's broadcast goes once to each other rank, so
+    GRAPE-S puts exactly ticks x (ranks - 1) beliefs of 16 + 4 n bytes on the wire, and
+    every one of them is received and decoded."""
+    m = mission_of(30)
+    run = mpi_run(m, "grape-s", LOCKSTEP, ranks=ranks, seed=2)
+    transport = run.network.transport
+    messages = run.network.ticks * (ranks - 1)
+    assert transport.wire_messages == transport.received_messages == messages
+    assert transport.wire_bytes == transport.received_bytes == messages * belief_size(30, "grape-s")
+    assert run.bytes == run.network.ticks * belief_size(30, "grape-s")  # one broadcast per tick
+
+
+@pytest.mark.parametrize("algorithm", ["grape-s", "pair-grape-s"])
+def test_real_time_runs_end_nash_stable_and_agreed(algorithm: str) -> None:
+    """Free-running real-time clocks (the seed's 1-10 ms latency; a 20 ms period and 4
+    d_G quiet ticks so that a busy test machine's scheduling pauses stay below the
+    termination rule's patience): the robots agree on a final, valid partition."""
+    m = mission_of(30, seed=3)
+    spec = "complete period=20ms latency=uniform:1ms:10ms"
+    run = mpi_run(m, algorithm, spec, ranks=2, seed=1, quiet_factor=4)
+    a = run.assignment
+    a.validate(m)  # raises on a robot in a service it lacks or an unknown slot
+    assert run.network.beliefs_agree and run.network.converged
+    assert proofs.nash_violations(m, a, capped=algorithm == "pair-grape-s") == []
+    assert run.network.transport.wire_bytes == run.network.transport.received_bytes
+
+
+def test_lost_and_delayed_messages_are_injected() -> None:
+    m = mission_of(30)
+    spec = "complete period=1ms sync=true loss=0.3 latency=uniform:0.5ms:3ms"
+    run = mpi_run(m, "grape-s", spec, ranks=2, seed=0)
+    assert run.network.losses > 0
+    assert run.network.receptions + run.network.losses == run.network.ticks * 29
+    run.assignment.validate(m)
+
+
+# ------------------------------------------------------------------- command line
+def cfopt_cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "cfopt", *args], capture_output=True, text=True, env=env
+    )
+
+
+@pytest.fixture
+def mission_file(tmp_path: Path) -> Path:
+    path = tmp_path / "m.json"
+    GridCell(20, 20, 4, 2).mission(1).to_json(path)
+    return path
+
+
+def test_cli_backend_mpi_json(mission_file: Path) -> None:
+    done = cfopt_cli(
+        "run", "grape-s", str(mission_file), "--backend", "mpi", "--ranks", "2",
+        "--network", LOCKSTEP, "--seed", "0", "--json",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    assert data["nash_stable"] and data["network"]["converged"]
+    transport = data["network"]["transport"]
+    assert transport["backend"] == "mpi" and transport["ranks"] == 2
+    assert transport["wire_bytes"] == transport["received_bytes"] > 0
+    assert data["options"]["engine"] == "mpi"
+
+
+def test_ranks_started_by_the_users_launcher(mission_file: Path) -> None:
+    """``mpiexec -n K python -m cfopt.mpi ...``: rank 0 alone prints the run."""
+    command = [*launcher(), "-n", "2", sys.executable, "-m", "cfopt.mpi", "pair-grape-s"]
+    command += [str(mission_file), "--network", LOCKSTEP, "--seed", "0", "--json"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)  # one JSON object: the other rank printed nothing
+    assert data["algorithm"] == "pair-grape-s" and data["network"]["transport"]["ranks"] == 2
+    assert data["network"]["transport"]["launch_seconds"] is None
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        pytest.param(["--ranks", "2"], "--ranks: only with --backend mpi", id="ranks-alone"),
+        pytest.param(["--backend", "mpi", "--ranks", "21"], "at most one rank per robot", id="K>n"),
+        pytest.param(["--backend", "mpi", "--ranks", "0"], "--ranks", id="zero-ranks"),
+    ],
+)
+def test_bad_mpi_options_exit_2(mission_file: Path, extra: list[str], fragment: str) -> None:
+    done = cfopt_cli("run", "grape-s", str(mission_file), *extra)
+    assert done.returncode == 2
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], lines
+
+
+def test_algorithms_without_mpi_agents_are_refused(mission_file: Path) -> None:
+    done = cfopt_cli("run", "sda", str(mission_file), "--backend", "mpi")
+    assert done.returncode == 2 and "has no MPI agents" in done.stderr
+    assert "grape-s, pair-grape-s" in done.stderr
+
+
+def test_missing_launcher_names_the_install_command(mission_file: Path) -> None:
+    env = dict(os.environ, CFOPT_MPIEXEC="/nonexistent/mpiexec")
+    done = cfopt_cli("run", "grape-s", str(mission_file), "--backend", "mpi", env=env)
+    assert done.returncode == 2 and done.stderr.startswith("error: backend: CFOPT_MPIEXEC")
+    env = dict(os.environ, PATH="/nonexistent")
+    code = (
+        "import sys, heuristics.mpi as h; from pathlib import Path; "
+        "h.Path = lambda *a: Path('/nonexistent'); from cfopt.cli import main; "
+        f"sys.exit(main(['run', 'grape-s', {str(mission_file)!r}, '--backend', 'mpi']))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.returncode == 2, done.stderr
+    assert 'pip install "cfopt[mpi]"' in done.stderr and "mpiexec" in done.stderr
+
+
+def test_missing_mpi4py_names_the_install_command(mission_file: Path) -> None:
+    code = (
+        "import sys; sys.modules['mpi4py'] = None; from cfopt.cli import main; "
+        f"sys.exit(main(['run', 'grape-s', {str(mission_file)!r}, '--backend', 'mpi']))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 2
+    assert done.stderr.strip() == (
+        'error: backend: mpi4py is not installed; install the mpi extra: pip install "cfopt[mpi]"'
+    )
