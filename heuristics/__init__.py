@@ -13,6 +13,7 @@
 from heuristics._run import Run, belief_bytes, broadcast_cost
 from heuristics.grape_s import grape_s
 from heuristics.grape_s_select import grape_s_select
+from heuristics.mpi import mpi_run
 from heuristics.pair_grape_s import pair_grape_s
 from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
@@ -29,6 +30,7 @@ __all__ = [
     "get_algorithm",
     "grape_s",
     "grape_s_select",
+    "mpi_run",
     "pair_grape_s",
     "pair_grape_s_chain",
     "rachna_dt",
