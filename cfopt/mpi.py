@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from cfopt import MissionError
-from cfopt.cli import EXIT_BAD_INPUT, _error, finish_run, load_mission
+from cfopt.cli import EXIT_BAD_INPUT, EXIT_SIGINT, _error, finish_run, load_mission
 
 __all__ = ["main"]
 
@@ -71,6 +71,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MissionError as exc:
         _error(exc.cli_message)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:  # Ctrl-C reaches every rank: one quiet exit each
+        return EXIT_SIGINT
 
 
 if __name__ == "__main__":

@@ -89,6 +89,7 @@ import os
 import pickle
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -129,6 +130,8 @@ INSTALL = 'pip install "cfopt[mpi]"'
 LAUNCHER_ENV = "CFOPT_MPIEXEC"
 _BELIEF, _DIRECT = 0, 1  # tag = 2 * robot + kind
 _SLEEP_NS = 200_000  # the longest nap between two looks at the wire
+#: The exit code of a rank stopped by SIGINT (``python -m cfopt.mpi``), as cfopt's.
+INTERRUPTED = 130
 #: Real seconds the launcher allows beyond the run's time limit (start-up, gathering).
 LAUNCH_SLACK = 120.0
 
@@ -293,19 +296,12 @@ def mpi_run(
         command += [str(result_file), "--time-limit", repr(limit / 1e9)]
         command += ["--quiet-factor", str(quiet_factor), "--reward", reward]
         command += [] if seed is None else ["--seed", str(seed)]
-        done = subprocess.run(
-            command,
-            capture_output=True,
-            text=True,
-            timeout=limit / 1e9 + LAUNCH_SLACK,
-            check=False,
-            env=_child_environment(),
-        )
-        if done.returncode != 0 or not result_file.is_file():
-            tail = (done.stderr or done.stdout).strip().splitlines()[-12:]
+        code, errors = _launch(command, limit / 1e9 + LAUNCH_SLACK)
+        if code != 0 or not result_file.is_file():
+            tail = errors.strip().splitlines()[-12:]
             raise RuntimeError(
-                f"the MPI job ({' '.join(command[:3])} ...) ended with exit code "
-                f"{done.returncode}:\n" + "\n".join(tail)
+                f"the MPI job ({' '.join(command[:3])} ...) ended with exit code {code}:\n"
+                + "\n".join(tail)
             )
         run: Run = pickle.loads(result_file.read_bytes())
     transport = dataclasses.replace(
@@ -313,6 +309,31 @@ def mpi_run(
     )
     report = dataclasses.replace(run.network, transport=transport)
     return dataclasses.replace(run, network=report)
+
+
+def _launch(command: list[str], timeout: float) -> tuple[int, str]:
+    """Run the MPI job; ``(exit code, its error output)``.  Ctrl-C (or a rank stopped by
+    SIGINT) stops the whole job and raises :class:`KeyboardInterrupt`; so does the
+    timeout's end, as :class:`subprocess.TimeoutExpired`."""
+    with subprocess.Popen(
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_child_environment(),
+    ) as job:
+        try:
+            _, errors = job.communicate(timeout=timeout)
+        except BaseException:
+            job.send_signal(signal.SIGINT)  # mpiexec passes it on to every rank
+            try:
+                job.communicate(timeout=10)
+            except subprocess.TimeoutExpired:
+                job.kill()
+            raise
+    if job.returncode == INTERRUPTED:
+        raise KeyboardInterrupt
+    return job.returncode, errors
 
 
 def _child_environment() -> dict[str, str]:

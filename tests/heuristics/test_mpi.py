@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -197,3 +199,18 @@ def test_missing_mpi4py_names_the_install_command(mission_file: Path) -> None:
     assert done.stderr.strip() == (
         'error: backend: mpi4py is not installed; install the mpi extra: pip install "cfopt[mpi]"'
     )
+
+
+def test_ctrl_c_stops_every_rank_with_one_line(mission_file: Path) -> None:
+    """SIGINT to the launcher: mpiexec passes it to the ranks, and the command ends as
+    every cfopt command does on Ctrl-C (exit 130, one line)."""
+    launcher_process = subprocess.Popen(
+        [sys.executable, "-m", "cfopt", "run", "grape-s", str(mission_file), "--backend",
+         "mpi", "--network", "complete period=1s", "--seed", "0"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    time.sleep(4)  # the ranks are up and ticking once a second
+    launcher_process.send_signal(signal.SIGINT)
+    _, err = launcher_process.communicate(timeout=60)
+    assert launcher_process.returncode == 130
+    assert err.strip() == "error: interrupted (SIGINT)"
