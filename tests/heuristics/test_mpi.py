@@ -76,6 +76,29 @@ def test_lockstep_mpi_runs_are_the_simulators_runs(
     assert dict(run.options)["engine"] == "mpi"
 
 
+@pytest.mark.parametrize(
+    ("algorithm", "mission", "spec", "ranks"),
+    [
+        # the seed's family at 8 robots, 10:5: a chain of two partners moves three robots
+        pytest.param("pair-grape-s-chain", GridCell(8, 10, 10, 5).mission(7), RING, 2, id="chain"),
+        pytest.param("pair-grape-s", GridCell(8, 10, 10, 5).mission(5), RING, 4, id="exchange"),
+        pytest.param(
+            "grape-s", cfopt.generate_mission(4, 50, 2, 1, seed=0), LOCKSTEP, 4, id="one-per-rank"
+        ),
+    ],
+)
+def test_lockstep_exchanges_and_one_robot_per_rank(
+    algorithm: str, mission: Mission, spec: str, ranks: int
+) -> None:
+    sim = simulate(mission, algorithm, spec, seed=0)
+    run = mpi_run(mission, algorithm, spec, ranks=ranks, seed=0)
+    assert np.array_equal(run.trajectory, sim.trajectory)
+    assert np.array_equal(run.assignment.task, sim.assignment.task)
+    assert (run.messages, run.bytes, run.exchanges) == (sim.messages, sim.bytes, sim.exchanges)
+    assert run.network.transport.robots_per_rank == tuple([mission.n_robots // ranks] * ranks)
+    assert run.exchanges == (algorithm != "grape-s")  # the pairwise step's one exchange
+
+
 @pytest.mark.parametrize("ranks", [2, 4])
 def test_wire_bytes_are_the_encoders_sizes(ranks: int) -> None:
     """On a complete network every tick's broadcast goes once to each other rank, so
