@@ -1,8 +1,6 @@
 """``python -m cfopt`` is the ``cfopt`` command."""
 
-import sys
-
-from cfopt.cli import main
+from cfopt.cli import entry
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -1124,3 +1124,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         _silence_stdout()
         _error(f"cannot write the output ({exc.strerror or exc})")
         return EXIT_BAD_INPUT
+
+
+def entry() -> NoReturn:
+    """The ``cfopt`` command (console script and ``python -m cfopt``): :func:`main`, then
+    the process ends with its exit code.
+
+    An interrupted command (exit 130 or 143) ends at once, after flushing its output: its
+    work is saved by then, and a worker process it killed in the middle of sending a
+    result would otherwise leave the interpreter's exit waiting forever for the worker
+    pool's result reader.
+    """
+    code = main()
+    if code in (EXIT_SIGINT, EXIT_SIGTERM):
+        with contextlib.suppress(OSError, ValueError):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
