@@ -343,21 +343,24 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     _add_workers_option(sub)
+    _add_scheduler_option(sub)
     _add_quiet_option(sub)
 
     def run(args: argparse.Namespace) -> int:
         from cfopt._progress import Progress
         from cfopt.reproduce import run_reproduce
 
-        result = run_reproduce(
-            args.output,
-            missions=args.missions,
-            workers=args.workers,
-            store=args.store,
-            distributed=not args.centralized_only,
-            force=args.force,
-            progress=Progress.auto(quiet=args.quiet),
-        )
+        with _trial_executor(args) as executor:
+            result = run_reproduce(
+                args.output,
+                missions=args.missions,
+                workers=args.workers,
+                executor=executor,
+                store=args.store,
+                distributed=not args.centralized_only,
+                force=args.force,
+                progress=Progress.auto(quiet=args.quiet),
+            )
         if args.json:
             emit_json(result.to_dict())
         else:

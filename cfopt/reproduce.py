@@ -33,6 +33,7 @@ Examples
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import itertools
 import math
 import os
@@ -137,6 +138,7 @@ def run_reproduce(
     *,
     missions: int = PAPER_MISSIONS,
     workers: int | None = None,
+    executor: cf.Executor | None = None,
     store: str | os.PathLike[str] | None = None,
     distributed: bool = True,
     force: bool = False,
@@ -156,6 +158,9 @@ def run_reproduce(
         Missions per cell (the seed's 25; fewer for a quick look, e.g. 2).
     workers : int, optional
         Worker processes (default: the usable CPUs).
+    executor : concurrent.futures.Executor, optional
+        Where the trials run instead, e.g. a dask cluster's
+        (:func:`cfopt.cluster.dask_executor`); the store stays in this process.
     store : path, optional
         The result store (default ``DIRECTORY/trials.sqlite``); trials already in it are
         reused, so an interrupted run resumes.
@@ -190,7 +195,13 @@ def run_reproduce(
         for sweep in sweeps:
             outcomes.append(
                 run_sweep(
-                    sweep, store, workers=workers, progress=progress, version=version, lock=False
+                    sweep,
+                    store,
+                    executor=executor,
+                    workers=workers,
+                    progress=progress,
+                    version=version,
+                    lock=False,
                 )
             )
     trials, version = load_trials(store, version)

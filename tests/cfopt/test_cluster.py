@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import json
 import os
 import signal
 import sqlite3
@@ -366,3 +367,27 @@ def test_a_lost_scheduler_stops_the_sweep_keeping_what_it_stored(tmp_path: Path)
     message = info.value.cli_message
     assert message.startswith(f"--scheduler {address}: lost the connection")
     assert f"{plural(kept, 'trial')} computed by this run {verb} kept in {store}" in message
+
+
+def test_cli_reproduce_on_a_running_scheduler(
+    executor: DaskExecutor,
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``cfopt reproduce --scheduler``: the trials run on the cluster, the store and the
+    report stay here, and every trial of the (shrunken) grid is stored."""
+    from cfopt import reproduce
+    from tests.cfopt.test_reproduce import _tiny_sweeps
+
+    monkeypatch.setattr(reproduce, "reproduction_sweeps", _tiny_sweeps)
+    out = tmp_path / "rep"
+    address = executor._client.scheduler.address
+    argv = ["reproduce", "--missions", "1", "--centralized-only", "--quiet", "-o", str(out)]
+    assert main([*argv, "--scheduler", address, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["trials_computed"] == 2 * 5 and data["trials_reused"] == 0
+    assert (out / "reproduction.md").is_file()
+    assert sorted(_keys(out / "trials.sqlite")) == sorted(_expected(_tiny_sweeps(1)[0]))
+    code = main([*argv, "--force", "--scheduler", "local:2", "--workers", "2"])
+    _one_error_line(capsys, code, "--workers: not with --scheduler")
