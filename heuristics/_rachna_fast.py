@@ -24,14 +24,15 @@ matching is never kept: every such search is run again, as the literal engine ru
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.optimize import linear_sum_assignment
 from sortedcontainers import SortedList
 
-#: Slot fillings remembered (a bundle fought over recurs); the memo is emptied when full.
+#: Slot fillings remembered (a capability pattern recurs); the memo is emptied when full.
 _FILLS = 1 << 16
 _MISSING = object()
 Found = tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int]
@@ -55,9 +56,11 @@ class Ledger:
 
     Notes
     -----
-    Memory O(n + m S + the kept bundles).  A search walks the sorted keys from the
-    cheapest until the bundle is complete: O(k_j) when most robots of the pool are
-    cheap enough, O(n) at worst.
+    Memory O(n + m S + the kept bundles + the memo of at most 2^16 slot fillings), plus
+    the holders: one integer of at most ``m`` bits per robot of a kept bundle, so at most
+    ``min(n, sum k_j) m / 8`` bytes, whatever bundles were kept before.  A search walks
+    the sorted keys from the cheapest until the bundle is complete: O(k_j) when most
+    robots of the pool are cheap enough, O(n) at worst.
     """
 
     def __init__(
@@ -78,8 +81,14 @@ class Ledger:
         self.k_f, self.k_w, self.limit = market.k_f, market.k_w, market.limit
         caps = np.asarray(finder.caps, dtype=bool)
         self.code = _codes(caps)
+        self.narrow = caps.shape[1] <= 62  # the codes fit in int64
         self.need = [need.tolist() for need in finder.need]
         self.mask = [sum(1 << s for s in need) for need in self.need]
+        slots: dict[tuple[tuple[int, ...], tuple[int, ...]], int] = {}
+        self.slots_of = [  # tasks with the same services and counts share their fillings
+            slots.setdefault((tuple(need), tuple(counts)), len(slots))
+            for need, counts in zip(self.need, finder.counts, strict=True)
+        ]
         self.need_matrix = np.zeros((len(self.need), caps.shape[1]), dtype=np.int64)
         for j, need in enumerate(self.need):
             self.need_matrix[j, need] = 1
@@ -87,7 +96,10 @@ class Ledger:
         self.theta = np.full(len(self.need), -1, dtype=np.int64)  # -1: nothing kept
         self.kept: dict[int, Found] = {}
         self.kept_robots: dict[int, list[int]] = {}
-        self.holders: list[set[int]] = [set() for _ in range(finder.n)]
+        # per robot, bit j set when task j's kept bundle has it: an integer shrinks with
+        # its highest bit, where a set keeps the table of its largest size (n tables of up
+        # to m tasks, hundreds of MB when all tasks once kept the same cheap robots)
+        self.holders = [0] * finder.n
         self.fills: dict[tuple[int, ...], Any] = {}
         self.rebuild()
 
@@ -136,7 +148,7 @@ class Ledger:
             ordered.remove(old)
             ordered.add(key)
             keys[i] = key
-            for j in list(holders[i]):
+            for j in _bits(holders[i]):
                 self._forget(j)
             if key < old:
                 fallen_robots.append(i)
@@ -153,8 +165,9 @@ class Ledger:
             self._forget(j)
 
     def _forget(self, j: int) -> None:
+        bit, holders = 1 << j, self.holders
         for i in self.kept_robots.pop(j):
-            self.holders[i].discard(j)
+            holders[i] ^= bit
         del self.kept[j]
         self.theta[j] = -1
 
@@ -162,8 +175,9 @@ class Ledger:
         self.kept[j] = found
         self.kept_robots[j] = robots
         self.theta[j] = theta
+        bit, holders = 1 << j, self.holders
         for i in robots:
-            self.holders[i].add(j)
+            holders[i] |= bit
 
     # ------------------------------------------------------------------ search
     def book(self) -> Any:
@@ -202,7 +216,7 @@ class Ledger:
         if b is None:
             return None
         robots_arr = np.sort(b.robots)
-        services = self.fill(finder, j, robots_arr)
+        services = self._fill(j, robots_arr.tolist())
         assert services is not None
         return robots_arr, services, int(b.weight) + k
 
@@ -271,7 +285,12 @@ class Ledger:
     def _fill(self, j: int, robots: list[int]) -> npt.NDArray[np.int64] | None:
         """The literal slot filling (``fill``) for ``robots`` ascending, decided here in
         its two simple cases: every robot has every service ``j`` needs (the slots in
-        order), or each has exactly one (that one, when the counts match)."""
+        order), or each has exactly one (that one, when the counts match).
+
+        Otherwise ``fill`` sees nothing of the robots but which of ``j``'s services each
+        has (its 0/1 matrix of robots by slots), so its answer is remembered under ``j``'s
+        services and counts and that sequence of capability bits: a pattern recurs far
+        more often than a robot set, and tasks needing the same services share it."""
         mask = self.mask[j]
         have = [self.code[i] & mask for i in robots]
         if all(h == mask for h in have):
@@ -284,14 +303,52 @@ class Ledger:
             if list(counts.values()) != self.finder.counts[j]:
                 return None
             return np.asarray(chosen, dtype=np.int64)
-        memo = (j, *robots)
+        memo = (self.slots_of[j], *have)
         services = self.fills.get(memo, _MISSING)
         if services is _MISSING:
-            services = self.fill(self.finder, j, np.asarray(robots, dtype=np.int64))
+            services = self._match(j, robots, have)
             if len(self.fills) >= _FILLS:
                 self.fills.clear()
             self.fills[memo] = services
         return None if services is None else services.copy()
+
+    def _match(self, j: int, robots: list[int], have: list[int]) -> npt.NDArray[np.int64] | None:
+        """``fill``'s matching for ``robots``, built from their capability bits ``have``
+        (the same 0/1 matrix, without ``fill``'s indexing), or ``fill`` itself when the
+        bits do not fit in int64.  O(k |S_j| + the matching)."""
+        if not self.narrow:
+            return self.fill(self.finder, j, np.asarray(robots, dtype=np.int64))
+        slots = self.finder.slot_service[j]
+        bits = np.asarray(have, dtype=np.int64)[:, None] >> slots
+        return match_slots(bits & 1 == 1, slots)
+
+
+def match_slots(
+    fits: npt.NDArray[np.bool_], slots: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64] | None:
+    """The service each robot performs when ``fits[r, c]`` says whether robot ``r`` can
+    fill slot ``c`` (of service ``slots[c]``), or ``None`` when the robots cannot fill all
+    the slots: scipy's deterministic ``linear_sum_assignment`` on the 0/1 cost matrix, so
+    the same matrix always gives the same filling.  O(k^3)."""
+    cost = np.where(fits, 0.0, 1.0)
+    rows, cols = linear_sum_assignment(cost)
+    if cost[rows, cols].any():
+        return None
+    out = np.empty(fits.shape[0], dtype=np.int64)
+    out[rows] = slots[cols]
+    return out
+
+
+def _bits(x: int) -> Iterator[int]:
+    """The positions of the set bits of ``x >= 0``, lowest first.  O(bits x x's words).
+
+    >>> list(_bits(0b101001))
+    [0, 3, 5]
+    """
+    while x:
+        low = x & -x
+        yield low.bit_length() - 1
+        x ^= low
 
 
 def _codes(caps: npt.NDArray[np.bool_]) -> list[int]:

@@ -38,14 +38,14 @@ import heapq
 import math
 import numbers
 import time
-from collections.abc import Callable
+from array import array
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import linear_sum_assignment
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_flow
 
@@ -57,7 +57,7 @@ from heuristics._auction import (
     check_eps,
     check_order,
 )
-from heuristics._rachna_fast import Ledger
+from heuristics._rachna_fast import Ledger, match_slots
 from heuristics._run import Run, seed_label
 from heuristics.communication import comm_model, media_table, table_cost
 
@@ -71,9 +71,14 @@ SCHEDULES = ("simultaneous", "sequential")
 MAX_ROUNDS = 10**5
 #: Jumps keep every wage (in units of eps) below this, so int64 never overflows.
 _WAGE_CAP = 2**62
+#: The largest price :class:`_BidLog` keeps in its int64 buffer.
+_INT64_MAX = 2**63 - 1
 #: The first checkpoint round at which the engine tries to prove that more than
 #: ``max_rounds`` rounds are needed (the seed's missions end long before).
 _PROVE_FROM = 16
+#: The most words (8 bytes each) the simultaneous engine's log of bids since the last
+#: checkpoint may hold (:class:`_BidLog`): 32 MiB; a full log starts a new checkpoint.
+_LOG_CELLS = 1 << 22
 
 
 def rachna_dt(
@@ -197,7 +202,15 @@ def rachna_dt(
       changes, bisects.  (Bundles tied in cost, flags and index sum could in principle
       break the interval; their keys are then equal and the choice among them is the
       matching's.)  The periods are added in one step: wages, counts, and the trajectory
-      rows with shifted iterations;
+      rows with shifted iterations.  To replay a period the simultaneous engine logs its
+      bids, ``3 + k_j`` words each, and Brent's span doubles, so on a long war with many
+      tasks bidding the log would outgrow the trajectory (up to ``m`` bids a round against
+      a few rows).  It is bounded (choice): when it holds 2^22 words (32 MiB) the engine
+      takes a new checkpoint at once, without doubling the span.  The trade-off: a cycle
+      whose period holds more bids than that is never detected (its rounds are run one by
+      one, with the same results), and the proof below is tried at every such
+      checkpoint (a maximum flow and, when it fails, one bundle search per task not
+      staffed), so once per 2^22 words of bids at most;
     * proves early that more than ``max_rounds`` rounds are needed, at every checkpoint
       from round 16 on (rounds 16, 32, 64, ... and after each jump): if the tasks not
       given up cannot all be staffed at once (a maximum flow from the robots to the
@@ -604,7 +617,7 @@ def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) ->
     return out
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class _Bid:
     """One task's bid in a simultaneous round: its bundle (robots ascending, each with the
     service it would perform) and its price in units of eps."""
@@ -613,6 +626,57 @@ class _Bid:
     robots: npt.NDArray[np.int64]
     services: npt.NDArray[np.int64]
     price: int
+
+
+class _BidLog:
+    """The bids of the simultaneous rounds since the last checkpoint, what :func:`_leap`
+    replays: each bid's task, price and robots, in flat int64 buffers.
+
+    A round has up to ``m`` bids and the span of Brent's cycle detection doubles, so a
+    :class:`_Bid` per bid (an object, two arrays and a Python integer, about 1 KB) made
+    the log the run's largest part (gigabytes over tens of thousands of rounds); here a
+    bid takes ``3 + k_j`` words (:attr:`cells`) and the services, which :func:`_leap`
+    does not read, are not kept.  A price past int64 (wages near ``_WAGE_CAP``) turns the
+    price buffer into a list.
+    """
+
+    def __init__(self) -> None:
+        self.tasks = array("q")
+        self.prices: array[int] | list[int] = array("q")
+        self.ends = array("q")  # per bid: where its robots end in ``robots``
+        self.robots = array("q")
+        self.round_ends = array("q")  # per round: where its bids end
+
+    @property
+    def cells(self) -> int:
+        """The words held, which :data:`_LOG_CELLS` bounds.  O(1)."""
+        return 3 * len(self.tasks) + len(self.robots) + len(self.round_ends)
+
+    def add(self, bids: list[_Bid]) -> None:
+        """Log one round's bids (at least one).  O(their robots)."""
+        prices = [bid.price for bid in bids]
+        if isinstance(self.prices, array) and max(prices) > _INT64_MAX:
+            self.prices = self.prices.tolist()
+        self.prices.extend(prices)
+        self.tasks.extend([bid.task for bid in bids])
+        robots = np.concatenate([bid.robots for bid in bids]).astype(np.int64, copy=False)
+        sizes = np.cumsum([bid.robots.size for bid in bids]) + len(self.robots)
+        self.ends.extend(sizes.tolist())
+        self.robots.frombytes(robots.tobytes())
+        self.round_ends.append(len(self.tasks))
+
+    def rounds(self) -> Iterator[list[tuple[int, npt.NDArray[np.int64], int]]]:
+        """Each logged round's bids as ``(task, robots ascending, price)``, in order.
+        O(the bids logged)."""
+        robots = np.array(self.robots, dtype=np.int64)
+        tasks, prices, ends = self.tasks, self.prices, self.ends
+        first = 0
+        for last in self.round_ends:
+            yield [
+                (tasks[b], robots[ends[b - 1] if b else 0 : ends[b]], prices[b])
+                for b in range(first, last)
+            ]
+            first = last
 
 
 def _simultaneous(
@@ -638,10 +702,10 @@ def _simultaneous(
     limit = _RoundLimit(max_rounds, eps, utilities, finder, caps64, reqs, budget, once=True)
 
     # Brent's cycle detection on the state at the end of a round; ``log`` holds the bids
-    # of every round since the checkpoint.
+    # of every round since the checkpoint, up to _LOG_CELLS words.
     check = _checkpoint(out, holdings, limit)
     span = 1
-    log: list[list[_Bid]] = []
+    log = _BidLog()
     while True:
         if out.rounds >= max_rounds:
             raise limit.too_many()
@@ -704,20 +768,20 @@ def _simultaneous(
         if ledger is not None:
             ledger.update(moved)
         if jump:
-            log.append(bids)
+            log.add(bids)
         if jump and check.same_but_wages(out, dead):
             if _leap(out, check, wage, log, market, budget, max_rounds, limit.too_many):
                 span = 1
                 if ledger is not None:
                     ledger.rebuild()
-            else:
+            elif log.cells < _LOG_CELLS:
                 continue
         elif out.rounds - check.rounds >= span:
             span *= 2
-        else:
+        elif log.cells < _LOG_CELLS:  # a full log starts a new checkpoint, span unchanged
             continue
         check = _checkpoint(out, holdings, limit)
-        log = []
+        log = _BidLog()
     return out
 
 
@@ -744,14 +808,7 @@ def _services(
             return None
         return need[choice]
     slots = finder.slot_service[j]
-    fits = finder.caps[robots][:, slots]
-    cost = np.where(fits, 0.0, 1.0)
-    rows, cols = linear_sum_assignment(cost)
-    if cost[rows, cols].any():
-        return None
-    out = np.empty(robots.size, dtype=np.int64)
-    out[rows] = slots[cols]
-    return out
+    return match_slots(finder.caps[robots][:, slots], slots)
 
 
 class _Market:
@@ -852,7 +909,7 @@ def _leap(
     out: _Outcome,
     check: _Checkpoint,
     wage: npt.NDArray[np.int64],
-    log: list[list[_Bid]],
+    log: _BidLog,
     market: _Market,
     budget: list[int],
     max_rounds: int,
@@ -878,11 +935,11 @@ def _leap(
         return False
     hi = (_WAGE_CAP - int(wage.max())) // top
     hi = min(hi, (max_rounds - out.rounds - 1) // length + 1)  # passing it proves too many
-    for bids in log:
-        for bid in bids:
-            rise = int(delta[bid.robots].sum())
+    for bids in log.rounds():
+        for task, robots, price in bids:
+            rise = int(delta[robots].sum())
             if rise > 0:
-                hi = min(hi, (budget[bid.task] - bid.price) // rise)
+                hi = min(hi, (budget[task] - price) // rise)
     if hi <= 0:
         return False
     rows = out.moves.since(check.counts[4])
@@ -892,13 +949,13 @@ def _leap(
     def repeats(periods: int) -> bool:
         w = check.wage + periods * delta
         flags = (check.holder >= 0).astype(np.int64)
-        for r, bids in enumerate(log):
+        for r, bids in enumerate(log.rounds()):
             book = market.book(w, flags)
-            for bid in bids:
-                found = book.best(bid.task)
-                if found is None or found[2] > budget[bid.task]:
+            for task, robots, _ in bids:
+                found = book.best(task)
+                if found is None or found[2] > budget[task]:
                     return False
-                if not np.array_equal(found[0], bid.robots):
+                if not np.array_equal(found[0], robots):
                     return False
             part = rows[cuts[r] : cuts[r + 1]]
             bought = part[part[:, 2] >= 0, 1]

@@ -1,6 +1,8 @@
 """RACHNA_dt's incremental price book (:mod:`heuristics._rachna_fast`) changes nothing: the
 simultaneous engine with it equals the literal engine (``_core(..., fast=False)``) in
-assignment, rounds, iterations, counts under both media, work and trajectory."""
+assignment, rounds, iterations, counts under both media, work and trajectory.  Nor does
+the bound on the engine's log of bids (``rachna._LOG_CELLS``): a full log only moves the
+checkpoint of the cycle detection."""
 
 from __future__ import annotations
 
@@ -132,3 +134,83 @@ def test_ledger_falls_back_past_the_key_limit():
     ledger.update(np.array([3]))
     assert ledger.book() is not ledger
     assert not ledger.kept
+
+
+def war() -> cfopt.Mission:
+    """Two tasks on one robot, budgets 1e4 and 2e4 units at eps = 1: a 2-round cycle."""
+    return cfopt.Mission.from_arrays([[1]], [[1], [1]], [1e4, 2e4])
+
+
+@pytest.mark.parametrize("cells", [12, 4])
+def test_a_full_bid_log_only_moves_the_checkpoint(cells):
+    """A log cap above one period of the war still jumps it; below, every round is run;
+    both give the uncapped run, and the log never holds more than one round past the cap."""
+    reference = rachna._core(war(), Fraction(1), 10**5)
+    held, leaps = [], []
+    add, leap = rachna._BidLog.add, rachna._leap
+
+    def logging_add(log, bids):
+        add(log, bids)
+        held.append(log.cells)
+
+    def counting_leap(*args):
+        leaps.append(leap(*args))
+        return leaps[-1]
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rachna, "_LOG_CELLS", cells)
+        patch.setattr(rachna._BidLog, "add", logging_add)
+        patch.setattr(rachna, "_leap", counting_leap)
+        capped = rachna._core(war(), Fraction(1), 10**5)
+    assert_same(capped, reference)
+    assert max(held) <= cells + 5  # one round of the war: one bid of one robot
+    assert any(leaps) == (cells == 12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    mission=missions(max_robots=6, max_tasks=4, max_services=3, max_utility=60),
+    cells=st.sampled_from([4, 16, 64]),
+)
+def test_a_small_bid_log_changes_nothing(mission, cells):
+    """Wars with the log capped at a few bids equal the run without jumps."""
+    e = Fraction(1, 3)
+    literal = rachna._core(mission, e, 10**6, jump=False)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rachna, "_LOG_CELLS", cells)
+        capped = rachna._core(mission, e, 10**6)
+    assert_same(capped, literal)
+
+
+def test_bid_log_gives_back_its_rounds():
+    """The flat log returns each round's (task, robots, price); a price past int64 too."""
+    log = rachna._BidLog()
+    services = np.zeros(2, dtype=np.int64)
+    log.add(
+        [
+            rachna._Bid(3, np.array([1, 4]), services, 7),
+            rachna._Bid(0, np.array([2]), services[:1], 2),
+        ]
+    )
+    log.add([rachna._Bid(1, np.array([0, 5]), services, 2**70)])
+    rounds = [[(t, r.tolist(), p) for t, r, p in bids] for bids in log.rounds()]
+    assert rounds == [[(3, [1, 4], 7), (0, [2], 2)], [(1, [0, 5], 2**70)]]
+    assert log.cells == 3 * 3 + 5 + 2
+
+
+def test_more_services_than_int64_bits():
+    """70 services: the capability codes pass int64, so the ledger hands its slot
+    fillings to the literal one; the engines still agree."""
+    mission = cfopt.generate_mission(40, 20, 70, 40, load=1.25, seed=4)
+    calls = []
+    services = rachna._services
+
+    def counting(*args):
+        calls.append(args[1])
+        return services(*args)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rachna, "_services", counting)
+        fast = rachna._core(mission, Fraction(1, 40), 10**6)
+    assert_same(fast, rachna._core(mission, Fraction(1, 40), 10**6, fast=False))
+    assert calls
