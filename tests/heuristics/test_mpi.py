@@ -43,14 +43,13 @@ def belief_size(n: int, algorithm: str) -> int:
     return (24 if algorithm == "pair-grape-s" else 16) + 4 * n
 
 
-@pytest.mark.parametrize("ranks", [2, 4])
 @pytest.mark.parametrize(
-    ("algorithm", "robots", "spec"),
+    ("algorithm", "robots", "spec", "ranks"),
     [
-        ("grape-s", 20, LOCKSTEP),
-        ("grape-s", 100, LOCKSTEP),
-        ("pair-grape-s", 40, LOCKSTEP),
-        ("pair-grape-s", 40, RING),
+        ("grape-s", 20, LOCKSTEP, 2),
+        ("grape-s", 100, LOCKSTEP, 4),
+        ("pair-grape-s", 40, LOCKSTEP, 2),
+        ("pair-grape-s", 40, RING, 4),
     ],
 )
 def test_lockstep_mpi_runs_are_the_simulators_runs(
