@@ -11,12 +11,20 @@ Use it where the cluster's launcher is given (``srun``, a batch script); it need
 from __future__ import annotations
 
 import argparse
+import os
 import pickle
 import sys
 from collections.abc import Sequence
 
 from cfopt import MissionError
-from cfopt.cli import EXIT_BAD_INPUT, EXIT_SIGINT, _error, finish_run, load_mission
+from cfopt.cli import (
+    EXIT_BAD_INPUT,
+    EXIT_SIGINT,
+    _check_output_free,
+    _error,
+    finish_run,
+    load_mission,
+)
 
 __all__ = ["main"]
 
@@ -31,7 +39,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--network", default="complete", metavar="SPEC", help="as 'cfopt run --network'"
     )
-    parser.add_argument("--seed", type=int, default=None, metavar="X")
+    parser.add_argument(
+        "--seed", type=int, default=None, metavar="X", help="random seed (default: fresh)"
+    )
     parser.add_argument(
         "--time-limit", type=float, default=None, metavar="SEC", help="real seconds (3600)"
     )
@@ -39,9 +49,21 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--reward", default="paper", help=argparse.SUPPRESS)
     parser.add_argument("--result-file", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("-o", "--output", default=None, metavar="FILE")
-    parser.add_argument("--force", action="store_true")
+    parser.add_argument(
+        "-o", "--output", default=None, metavar="FILE", help="as 'cfopt run -o' (rank 0 writes)"
+    )
+    parser.add_argument("--force", action="store_true", help="replace FILE if it exists")
     return parser
+
+
+def _launched_rank() -> int:
+    """This process's rank as the launcher set it (MPICH/Intel MPI, Open MPI, PMIx), read
+    before MPI starts; 0 when none is set."""
+    for name in ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK"):
+        value = os.environ.get(name, "")
+        if value.isdigit():
+            return int(value)
+    return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -52,6 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         mission = load_mission(args.mission)
+        _check_output_free(args)
         run = run_ranks(
             mission,
             args.algorithm,
@@ -69,7 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         return finish_run(args, mission, run)
     except MissionError as exc:
-        _error(exc.cli_message)
+        if _launched_rank() == 0:  # every rank finds the same bad input: one line is enough
+            _error(exc.cli_message)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:  # Ctrl-C reaches every rank: one quiet exit each
         return EXIT_SIGINT

@@ -226,3 +226,18 @@ def test_ctrl_c_stops_every_rank_with_one_line(mission_file: Path) -> None:
     _, err = launcher_process.communicate(timeout=60)
     assert launcher_process.returncode == 130
     assert err.strip() == "error: interrupted (SIGINT)"
+
+
+def test_bad_input_to_the_ranks_is_one_error_line(mission_file: Path) -> None:
+    """Every rank finds the same problem; only rank 0 says it."""
+    taken = mission_file.parent / "taken.json"
+    taken.write_text("{}", encoding="utf-8")
+    command = [*launcher(), "-n", "2", sys.executable, "-m", "cfopt.mpi", "grape-s"]
+    done = subprocess.run(
+        [*command, str(mission_file), "-o", str(taken)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [
+        f"error: {taken}: already exists (pass --force to replace it)"
+    ]
+    assert taken.read_text(encoding="utf-8") == "{}"
