@@ -132,7 +132,7 @@ import heapq
 import math
 import time
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from functools import cmp_to_key
 
@@ -140,6 +140,7 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
+from heuristics._grape_s_fast import Outcome as _Outcome
 from heuristics._run import Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 
@@ -456,16 +457,6 @@ def _flow(counts, sub, need, g_types, g_cap, work) -> bool:
 
 
 # ------------------------------------------------------------------- the engine
-@dataclass
-class _Outcome:
-    task: npt.NDArray[np.int64]
-    service: npt.NDArray[np.int64]
-    iterations: int = 0
-    rounds: int = 0
-    work: int = 0
-    moves: list[tuple[int, int, int, int]] = field(default_factory=list)
-
-
 @dataclass
 class _Pool:
     """The free robots at a phase step: unassigned ones, and over-full slots as groups."""

@@ -8,22 +8,14 @@ from hypothesis import given, target
 from hypothesis import strategies as st
 
 import proofs
-from proofs.strategies import assignments, missions, near_stable_assignments
+from proofs.strategies import missions, near_stable_assignments
 
 from . import naive
+from .cases import missions_with_assignments
 
 
-@st.composite
-def cases(draw):
-    m = draw(missions(max_robots=10, max_tasks=5, max_services=4))
-    a = draw(
-        st.one_of(
-            assignments(m),
-            near_stable_assignments(m),
-            near_stable_assignments(m, capped=True),
-        )
-    )
-    return m, a
+def cases():
+    return missions_with_assignments(max_robots=10, max_tasks=5, max_services=4)
 
 
 def _fast_joint(m, a, mode, capped):

@@ -12,13 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypothesis import given
-from hypothesis import strategies as st
 
 import cfopt
 import proofs
 from proofs import stability
 from proofs._dynamics import best_response
-from proofs.strategies import assignments, missions, near_stable_assignments
+
+from .cases import missions_with_assignments
 
 COMBOS = [(mode, capped) for capped in (False, True) for mode in proofs.MODES]
 
@@ -68,17 +68,8 @@ def _assert_same(mission: cfopt.Mission, assignment: cfopt.Assignment) -> None:
         ) == stability._is_pairwise_stable_reference(mission, assignment, **kw)
 
 
-@st.composite
-def _cases(draw):
-    m = draw(missions(max_robots=14, max_tasks=5, max_services=3))
-    a = draw(
-        st.one_of(
-            assignments(m),
-            near_stable_assignments(m),
-            near_stable_assignments(m, capped=True),
-        )
-    )
-    return m, a
+def _cases():
+    return missions_with_assignments(max_robots=14, max_tasks=5, max_services=3)
 
 
 @given(_cases())
