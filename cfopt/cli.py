@@ -516,6 +516,8 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
 
         algorithm = get_algorithm(args.algorithm)
         distributed = args.network is not None or args.backend == "mpi"
+        if args.ranks is not None and args.backend != "mpi":
+            raise MissionError("--ranks: only with --backend mpi")
         if not distributed and args.time_limit is not None:
             raise MissionError("--time-limit: only for distributed runs (give --network)")
         m = load_mission(args.mission)
@@ -532,8 +534,6 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
                 )
             result = _distributed(args, m)
         else:
-            if args.ranks is not None:
-                raise MissionError("--ranks: only with --backend mpi")
             result = algorithm(m, seed=args.seed, order=args.order, **options, **model)
         return finish_run(args, m, result)
 
@@ -622,8 +622,6 @@ def _distributed(args: argparse.Namespace, mission: Mission) -> Any:
             seed=args.seed,
             time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
         )
-    if args.ranks is not None:
-        raise MissionError("--ranks: only with --backend mpi")
     return simulate(
         mission,
         args.algorithm,
