@@ -580,6 +580,70 @@ def _close_highs() -> None:
         _CLOSED.set()
 
 
+#: Held while fd 1 points at ``/dev/null`` for HiGHS's banner (see :func:`_quiet_highs`).
+_BANNER_LOCK = threading.Lock()
+_banner_printed = False
+
+
+def _quiet_highs() -> None:
+    """Let HiGHS print its banner, once per process, where no one reads it.
+
+    HiGHS writes a copyright banner on standard output from the first ``Highs()``
+    built in a process (highspy 1.16 does so in the constructor, before any option can
+    be set, and highspy offers no quiet constructor), which would corrupt ``--json``.
+    So the first solver of a process, whoever builds it (cfopt's own highspy model or
+    cvxpy's HiGHS interface), is preceded by a throw-away ``Highs()`` built with file
+    descriptor 1 pointing at ``/dev/null``.  Python's and C's buffers are flushed on
+    both sides of the swap, and the lock keeps two threads from swapping at once.
+    """
+    global _banner_printed
+    if _banner_printed:
+        return
+    with _BANNER_LOCK:
+        if _banner_printed:
+            return
+        import highspy
+
+        with _stdout_to_devnull():
+            highspy.Highs()
+        _banner_printed = True
+
+
+@contextlib.contextmanager
+def _stdout_to_devnull() -> Iterator[None]:
+    """File descriptor 1 points at ``/dev/null`` inside the block (a no-op without one)."""
+    import ctypes
+    import sys
+
+    with contextlib.suppress(ValueError, OSError):  # a closed or detached sys.stdout
+        sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no descriptor 1: nothing to protect
+        yield
+        return
+    libc = ctypes.CDLL(None)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        try:
+            yield
+        finally:
+            libc.fflush(None)  # what C's stdio buffered goes to /dev/null, not the user
+            os.dup2(saved, 1)
+    finally:
+        os.close(devnull)
+        os.close(saved)
+
+
+def _forget_parent_banner_lock() -> None:
+    global _BANNER_LOCK
+    _BANNER_LOCK = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_parent_banner_lock)
+
+
 @contextlib.contextmanager
 def _highs_turn(clock: _Clock, reserve: float) -> Iterator[float | None]:
     """Hold :data:`_HIGHS_LOCK`; yields HiGHS's time limit (``None``: no limit).
@@ -630,6 +694,7 @@ def _highs(
     """
     import cvxpy as cp
 
+    _quiet_highs()
     # cvxpy's SciPy backend compiles these sparse-matrix models faster than its default.
     data, chain, inverse = problem.get_problem_data(
         cp.HIGHS, ignore_dpp=True, canon_backend="SCIPY"
@@ -835,6 +900,7 @@ def _highs_direct(
     """
     import highspy
 
+    _quiet_highs()
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     lp = highspy.HighsLp()
