@@ -1127,15 +1127,47 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
 
 
+def reserve_stdout() -> None:
+    """Keep file descriptor 1 for what cfopt prints: anything else goes to stderr.
+
+    ``sys.stdout`` is rebuilt on a copy of descriptor 1, and descriptor 1 itself is
+    pointed at stderr, so a library that writes to the C-level stdout (a solver's banner,
+    an MPI library's notice) lands on stderr and never inside a ``--json`` object or an
+    assignment printed with ``-o -``.  Only for a real process whose ``sys.stdout`` is
+    descriptor 1 (not under a test's capture); a no-op when either descriptor is closed.
+    """
+    import io
+
+    try:
+        if sys.stdout is None or sys.stdout.fileno() != 1 or sys.stderr is None:
+            return
+        sys.stderr.fileno()
+        sys.stdout.flush()
+        ours = os.dup(1)
+    except (OSError, ValueError, AttributeError):  # io.UnsupportedOperation is both
+        return
+    os.set_inheritable(ours, False)
+    line_buffering = sys.stdout.line_buffering
+    sys.stdout = io.TextIOWrapper(
+        io.FileIO(ours, "w", closefd=True),
+        encoding="utf-8",
+        errors="backslashreplace",
+        line_buffering=line_buffering,
+    )
+    os.dup2(2, 1)
+
+
 def entry() -> NoReturn:
     """The ``cfopt`` command (console script and ``python -m cfopt``): :func:`main`, then
     the process ends with its exit code.
 
-    An interrupted command (exit 130 or 143) ends at once, after flushing its output: its
+    Standard output is reserved for cfopt's own output (:func:`reserve_stdout`).  An
+    interrupted command (exit 130 or 143) ends at once, after flushing its output: its
     work is saved by then, and a worker process it killed in the middle of sending a
     result would otherwise leave the interpreter's exit waiting forever for the worker
     pool's result reader.
     """
+    reserve_stdout()
     code = main()
     if code in (EXIT_SIGINT, EXIT_SIGTERM):
         with contextlib.suppress(OSError, ValueError):
