@@ -353,17 +353,20 @@ def _marked(folder: str) -> list[int]:
 def _overrun(overrun: _Overrun, folder: Path, ranks: int, time_limit: float) -> MPIJobError:
     """The line for a job that overran its bound (read before its processes are killed)."""
     records = rank_records(folder)
+    bound = f"the time limit {time_limit:g} s + {GRACE:g} s"
     if not overrun.started:
+        stopped = [f"pid {pid} is stopped" for pid in _marked(str(folder)) if _stopped(pid)]
         return MPIJobError(
             f"backend: {len(records)} of {ranks} MPI ranks started within "
-            f"{overrun.seconds:g} s of the launch (the time limit {time_limit:g} s + "
-            f"{GRACE:g} s, at most {START_LIMIT:g} s); the job was killed"
+            f"{overrun.seconds:g} s of the launch ({bound}, at most {START_LIMIT:g} s)"
+            + "".join(f"; {line}" for line in stopped)
+            + "; the job was killed"
         )
-    unfinished = [_state(r, folder) for r in sorted(records.values(), key=_rank) if r.code is None]
+    marked = _marked(str(folder))
+    unfinished = [_state(r, marked) for r in sorted(records.values(), key=_rank) if r.code is None]
     return MPIJobError(
         f"backend: the MPI job did not end within {overrun.seconds:g} s of its ranks' start "
-        f"(the time limit {time_limit:g} s + {GRACE:g} s): {', '.join(unfinished)}; "
-        "the job was killed"
+        f"({bound}): {', '.join(unfinished)}; the job was killed"
     )
 
 
@@ -371,19 +374,24 @@ def _rank(record: RankRecord) -> int:
     return record.rank
 
 
-def _state(record: RankRecord, folder: Path) -> str:
-    """``rank R (pid P) is stopped``, ``... is still running`` or ``... is gone``."""
+def _state(record: RankRecord, marked: list[int]) -> str:
+    """``rank R (pid P) is stopped``, ``... is still running`` or ``... is gone``
+    (``marked``: the job's live local processes)."""
     who = f"rank {record.rank} (pid {record.pid})"
     if record.host != socket.gethostname():
         return f"{who} on {record.host} had not finished"
-    if record.pid not in _marked(str(folder)):
+    if record.pid not in marked:
         return f"{who} is gone"
+    return f"{who} is stopped" if _stopped(record.pid) else f"{who} is still running"
+
+
+def _stopped(pid: int) -> bool:
+    """Whether process ``pid`` is stopped (by SIGSTOP, SIGTSTP, a debugger; Linux)."""
     try:
-        stat = Path(f"/proc/{record.pid}/stat").read_text(encoding="utf-8")
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="utf-8")
     except OSError:
-        return f"{who} is still running"
-    state = stat.rpartition(")")[2].split()[:1]
-    return f"{who} is stopped" if state in (["T"], ["t"]) else f"{who} is still running"
+        return False
+    return stat.rpartition(")")[2].split()[:1] in (["T"], ["t"])
 
 
 def _diagnose(
