@@ -8,7 +8,8 @@ model held against them.  Only the transport differs; the algorithms are not wri
 again.
 
 * :func:`mpi_run` (``cfopt run ALG MISSION --backend mpi --ranks K``) launches ``mpiexec
-  -n K python -m cfopt.mpi ...`` and returns the run gathered on rank 0;
+  -n K python -m cfopt.mpi ...`` and returns the run gathered on rank 0 (the waiting,
+  killing and error lines: :mod:`heuristics.mpi_job`);
 * :func:`run_ranks` is what every rank executes (``mpiexec -n K python -m cfopt.mpi ALG
   MISSION ...`` on a cluster whose launcher is given); collective over ``comm``.
 
@@ -302,6 +303,7 @@ def mpi_run(
     command = launcher()
     fresh = None if seed is not None else int(np.random.SeedSequence().entropy)
     world = seed if fresh is None else np.random.default_rng(fresh)  # what rank 0 gets
+    # the ranks' own network: a bad one is the simulator's error line, before any launch
     spec.build(mission, np.random.default_rng(_world_streams(_entropy(world))[0]))
     with job_folder() as folder:
         mission_file = folder / "mission.json"

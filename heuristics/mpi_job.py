@@ -190,7 +190,7 @@ def rank_ended(rank: int, code: int) -> None:
 def _record(path: Path, text: str) -> None:
     """Write ``path`` whole or not at all (a folder another node cannot see is no error)."""
     with contextlib.suppress(OSError):
-        partial = path.with_suffix(".partial")
+        partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
         partial.write_text(text, encoding="utf-8")
         partial.replace(path)
 

@@ -6,6 +6,7 @@ stderr naming the launcher or the rank and how, no traceback, no process of the 
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -131,6 +132,13 @@ def mission(tmp_path: Path) -> Path:
     return path
 
 
+def launching_with(command: str) -> dict[str, str]:
+    """The environment entries making ``command`` the launcher (``mpiexec`` beside Python
+    found on ``PATH``)."""
+    path = f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"
+    return {"CFOPT_MPIEXEC": command, "PATH": path}
+
+
 def script(folder: Path, name: str, body: str) -> str:
     """A fake launcher: a shell script getting ``-n K python -m cfopt.mpi ...``."""
     path = folder / name
@@ -188,17 +196,14 @@ def test_launchers_that_fail(mission: Path, tmp_path: Path, launch: str, line: s
     if launch in fakes:
         launch = script(tmp_path, f"{launch.lower()}.sh", fakes[launch])
         line = line.format(launch)
-    path = os.environ["PATH"]
-    env = {"CFOPT_MPIEXEC": launch, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{path}"}
-    job = Job(mission, env=env)
-    assert job.end().startswith(line)
+    assert Job(mission, env=launching_with(launch)).end().startswith(line)
 
 
 def test_a_launcher_that_never_starts_a_rank_is_killed(mission: Path, tmp_path: Path) -> None:
     """``exec sleep 1000`` with a 1 s limit: killed (the sleep too) once the ranks had
     ``min(limit + GRACE, START_LIMIT)`` seconds to start."""
     sleeper = script(tmp_path, "sleeper.sh", "exec sleep 1000")
-    job = Job(mission, time_limit=1, env={"CFOPT_MPIEXEC": sleeper})
+    job = Job(mission, time_limit=1, env=launching_with(sleeper))
     assert job.end() == (
         f"error: backend: 0 of 2 MPI ranks started within {1 + GRACE:g} s of the launch "
         f"(the time limit 1 s + {GRACE:g} s, at most {START_LIMIT:g} s); the job was killed"
@@ -206,6 +211,13 @@ def test_a_launcher_that_never_starts_a_rank_is_killed(mission: Path, tmp_path: 
 
 
 # ----------------------------------------------------------------------- the ranks
+def test_a_ranks_own_error_line_is_passed_on(mission: Path, tmp_path: Path) -> None:
+    """A launcher that loses the mission before starting the ranks: rank 0's line."""
+    lose = 'for a; do case $a in *mission.json) rm "$a";; esac; done\nexec mpiexec "$@"'
+    line = Job(mission, env=launching_with(script(tmp_path, "lose.sh", lose))).end()
+    assert re.fullmatch(r"error: /\S*/cfopt-mpi-\d+-\w+/mission\.json: .+", line), line
+
+
 @pytest.mark.parametrize(
     ("spec", "edges"),
     [
@@ -269,7 +281,7 @@ def test_sigkill_of_cfopt_leaves_nothing_running(mission: Path) -> None:
         time.sleep(0.1)
     assert marked(job.tag) == [], [command_line(p) for p in marked(job.tag)]
     assert folder.is_dir()
-    Job(mission, env={"CFOPT_MPIEXEC": "/bin/true"}).end()
+    Job(mission, env=launching_with("/bin/true")).end()
     assert not folder.exists()
 
 
