@@ -9,13 +9,21 @@ for one worker, else a :class:`concurrent.futures.ProcessPoolExecutor` whose wor
 - ignore SIGINT: Ctrl-C reaches the whole foreground process group, and only the parent
   should answer it (it then stops the workers with :func:`stop_executor`, and the trials
   stored so far are kept).
+
+The two mechanisms are public for other processes that must not outlive theirs: the MPI
+launcher :func:`heuristics.mpi.mpi_run` starts (:func:`parent_death_hook`) and its ranks
+(:func:`die_with_parent`, :func:`watch_parent` with the pid of the ``cfopt`` process that
+launched them).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import ctypes
+import functools
 import os
+import select
 import signal
 import sys
 import threading
@@ -25,7 +33,15 @@ from typing import Any
 
 from cfopt.errors import parameter_error
 
-__all__ = ["default_workers", "make_executor", "stop_executor"]
+__all__ = [
+    "default_workers",
+    "die_with_parent",
+    "make_executor",
+    "parent_death_hook",
+    "process_exists",
+    "stop_executor",
+    "watch_parent",
+]
 
 #: Seconds between two looks of a worker's watchdog at its parent.
 WATCHDOG_PERIOD = 0.5
@@ -63,22 +79,77 @@ def make_executor(workers: int | None) -> cf.Executor:
 def _worker_setup(parent: int) -> None:
     """Runs first in every worker process."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            import ctypes
+    die_with_parent(parent)
+    watch_parent(parent)
 
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != parent:  # the parent died before the line above took effect
+
+def die_with_parent(parent: int) -> None:
+    """Have the kernel SIGKILL this process the moment its parent dies, even by SIGKILL
+    (Linux, ``prctl(PR_SET_PDEATHSIG)``; nothing elsewhere), and end it at once when
+    ``parent`` is no longer its parent (it died before).  Starts no thread: safe in a
+    forked child before ``exec`` (see :func:`parent_death_hook`)."""
+    prctl = _prctl()
+    if prctl is not None:
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
 
-def _watch_parent(parent: int) -> None:
+def parent_death_hook() -> Callable[[], None]:
+    """A ``preexec_fn`` for :class:`subprocess.Popen`: the child (the program it runs)
+    dies with the calling process (:func:`die_with_parent`)."""
+    _prctl()  # load libc here, not in the forked child
+    return functools.partial(die_with_parent, os.getpid())
+
+
+def watch_parent(parent: int, origin: int | None = None) -> None:
+    """Start a daemon thread that ends this process (exit code 1) within
+    :data:`WATCHDOG_PERIOD` seconds of finding that ``parent`` is no longer its parent,
+    or that ``origin`` (a process further up, e.g. the one that started the launcher of
+    this process) has ended; at once when ``origin`` has already ended."""
+    alive = _liveness(origin) if origin is not None else None
+    threading.Thread(target=_watch, args=(parent, alive), daemon=True).start()
+
+
+def _watch(parent: int, alive: Callable[[], bool] | None) -> None:
     while True:
-        time.sleep(WATCHDOG_PERIOD)
-        if os.getppid() != parent:
+        if os.getppid() != parent or (alive is not None and not alive()):
             os._exit(1)
+        time.sleep(WATCHDOG_PERIOD)
+
+
+def _liveness(pid: int) -> Callable[[], bool]:
+    """Whether ``pid`` still runs: a pidfd when the system has them (a zombie counts as
+    ended, a reused pid is not mistaken for it), else ``kill(pid, 0)``."""
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        return lambda: False
+    except (AttributeError, OSError):
+        return functools.partial(process_exists, pid)
+    return lambda: not select.select([fd], [], [], 0)[0]
+
+
+def process_exists(pid: int) -> bool:
+    """Whether a process ``pid`` exists (a zombie still does)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@functools.cache
+def _prctl() -> Callable[..., int] | None:
+    """libc's ``prctl`` (Linux), else ``None``."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
 
 
 def stop_executor(executor: cf.Executor) -> None:

@@ -48,6 +48,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--quiet-factor", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--reward", default="paper", help=argparse.SUPPRESS)
     parser.add_argument("--result-file", default=None, help=argparse.SUPPRESS)
+    # the fresh draw of a run without a seed, made by the launching process (which checked
+    # the network with it); the run is still recorded as one without a seed
+    parser.add_argument("--entropy", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "-o", "--output", default=None, metavar="FILE", help="as 'cfopt run -o' (rank 0 writes)"
@@ -68,6 +71,18 @@ def _launched_rank() -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run this rank; returns the exit code."""
+    from heuristics.mpi_job import rank_ended, rank_started
+
+    rank = _launched_rank()
+    rank_started(rank)
+    code = _rank_main(argv)
+    rank_ended(rank, code)
+    return code
+
+
+def _rank_main(argv: Sequence[str] | None) -> int:
+    import numpy as np
+
     from heuristics.mpi import run_ranks
     from heuristics.simulate import DEFAULT_TIME_LIMIT, QUIET_FACTOR
 
@@ -79,7 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             mission,
             args.algorithm,
             args.network,
-            seed=args.seed,
+            seed=args.seed if args.entropy is None else np.random.default_rng(args.entropy),
             time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
             quiet_factor=args.quiet_factor or QUIET_FACTOR,
             reward=args.reward,

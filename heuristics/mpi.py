@@ -8,7 +8,8 @@ model held against them.  Only the transport differs; the algorithms are not wri
 again.
 
 * :func:`mpi_run` (``cfopt run ALG MISSION --backend mpi --ranks K``) launches ``mpiexec
-  -n K python -m cfopt.mpi ...`` and returns the run gathered on rank 0;
+  -n K python -m cfopt.mpi ...`` and returns the run gathered on rank 0 (the waiting,
+  killing and error lines: :mod:`heuristics.mpi_job`);
 * :func:`run_ranks` is what every rank executes (``mpiexec -n K python -m cfopt.mpi ALG
   MISSION ...`` on a cluster whose launcher is given); collective over ``comm``.
 
@@ -86,13 +87,9 @@ import dataclasses
 import heapq
 import itertools
 import os
-import pickle
 import shlex
 import shutil
-import signal
-import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -106,6 +103,7 @@ from cfopt import Assignment, Mission, MissionError, require_mission
 from heuristics._run import Run, seed_label
 from heuristics.agents.belief import Belief, Problem, decode_belief
 from heuristics.agents.grape_s import decode_message
+from heuristics.mpi_job import job_folder, run_job
 from heuristics.network import Clocks, Links, NetworkSpec
 from heuristics.simulate import (
     DEFAULT_TIME_LIMIT,
@@ -130,10 +128,6 @@ INSTALL = 'pip install "cfopt[mpi]"'
 LAUNCHER_ENV = "CFOPT_MPIEXEC"
 _BELIEF, _DIRECT = 0, 1  # tag = 2 * robot + kind
 _SLEEP_NS = 200_000  # the longest nap between two looks at the wire
-#: The exit code of a rank stopped by SIGINT (``python -m cfopt.mpi``), as cfopt's.
-INTERRUPTED = 130
-#: Real seconds the launcher allows beyond the run's time limit (start-up, gathering).
-LAUNCH_SLACK = 120.0
 
 
 @dataclass(frozen=True)
@@ -213,7 +207,12 @@ def launcher() -> list[str]:
         ) from None
     given = os.environ.get(LAUNCHER_ENV)
     if given:
-        command = shlex.split(given)
+        try:
+            command = shlex.split(given)
+        except ValueError as exc:  # an unclosed quote, a lone backslash
+            raise MissionError(
+                f"backend: {LAUNCHER_ENV}={given!r} is not a command line ({exc})"
+            ) from None
         if command and shutil.which(command[0]):
             return command
         raise MissionError(f"backend: {LAUNCHER_ENV}={given!r} is not a command that exists")
@@ -266,9 +265,23 @@ def mpi_run(
     Raises
     ------
     cfopt.MissionError
-        A bad argument, or no mpi4py / no launcher (naming ``pip install "cfopt[mpi]"``).
+        A bad argument or network (checked before anything is launched), or no mpi4py /
+        no launcher (naming ``pip install "cfopt[mpi]"``).
+    heuristics.mpi_job.MPIJobError
+        The MPI job failed (a :class:`cfopt.MissionError` and a :class:`RuntimeError`):
+        one line naming the launcher or the rank and how (a rank's own error line as it
+        is), e.g. a rank killed or stopped, or the job still running ``time_limit +``
+        :data:`heuristics.mpi_job.GRACE` seconds after its ranks started (it is killed).
     RuntimeError
-        The MPI job failed (its error output is in the message).
+        A rank crashed with a traceback (the end of the job's output is in the message).
+
+    Notes
+    -----
+    The launcher runs in a session of its own and dies with this process; its ranks die
+    with it too, and whatever is left of the job when it ends is killed
+    (:mod:`heuristics.mpi_job`).  The job's folder (``cfopt-mpi-PID-*`` in the temporary
+    directory) goes with the run; if this process is killed by SIGKILL, the next MPI run
+    removes it.
 
     Examples
     --------
@@ -288,23 +301,28 @@ def mpi_run(
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise MissionError(f"seed: must be a whole number >= 0 or None, got {seed!r}")
     command = launcher()
-    with tempfile.TemporaryDirectory(prefix="cfopt-mpi-") as folder:
-        mission_file = Path(folder) / "mission.json"
+    fresh = None if seed is not None else int(np.random.SeedSequence().entropy)
+    world = seed if fresh is None else np.random.default_rng(fresh)  # what rank 0 gets
+    # the ranks' own network: a bad one is the simulator's error line, before any launch
+    spec.build(mission, np.random.default_rng(_world_streams(_entropy(world))[0]))
+    with job_folder() as folder:
+        mission_file = folder / "mission.json"
         mission_file.write_text(mission.to_json(), encoding="utf-8")
-        result_file = Path(folder) / "run.pickle"
-        command += ["-n", str(ranks), sys.executable, "-m", "cfopt.mpi", algorithm]
-        command += [str(mission_file), "--network", spec.to_text(), "--result-file"]
-        command += [str(result_file), "--time-limit", repr(limit / 1e9)]
-        command += ["--quiet-factor", str(quiet_factor), "--reward", reward]
-        command += [] if seed is None else ["--seed", str(seed)]
-        code, errors = _launch(command, limit / 1e9 + LAUNCH_SLACK)
-        if code != 0 or not result_file.is_file():
-            tail = errors.strip().splitlines()[-12:]
-            raise RuntimeError(
-                f"the MPI job ({' '.join(command[:3])} ...) ended with exit code {code}:\n"
-                + "\n".join(tail)
-            )
-        run: Run = pickle.loads(result_file.read_bytes())
+        result_file = folder / "run.pickle"
+        program = [sys.executable, "-m", "cfopt.mpi", algorithm, str(mission_file)]
+        program += ["--network", spec.to_text(), "--result-file", str(result_file)]
+        program += ["--time-limit", repr(limit / 1e9), "--quiet-factor", str(quiet_factor)]
+        program += ["--reward", reward]
+        program += ["--seed", str(seed)] if fresh is None else ["--entropy", str(fresh)]
+        run = run_job(
+            command,
+            ranks,
+            program,
+            folder=folder,
+            result=result_file,
+            time_limit=limit / 1e9,
+            kind=Run,
+        )
     transport = dataclasses.replace(
         run.network.transport, launch_seconds=time.perf_counter() - started
     )
@@ -312,37 +330,9 @@ def mpi_run(
     return dataclasses.replace(run, network=report)
 
 
-def _launch(command: list[str], timeout: float) -> tuple[int, str]:
-    """Run the MPI job; ``(exit code, its error output)``.  Ctrl-C (or a rank stopped by
-    SIGINT) stops the whole job and raises :class:`KeyboardInterrupt`; so does the
-    timeout's end, as :class:`subprocess.TimeoutExpired`."""
-    with subprocess.Popen(
-        command,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=_child_environment(),
-    ) as job:
-        try:
-            _, errors = job.communicate(timeout=timeout)
-        except BaseException:
-            job.send_signal(signal.SIGINT)  # mpiexec passes it on to every rank
-            try:
-                job.communicate(timeout=10)
-            except subprocess.TimeoutExpired:
-                job.kill()
-            raise
-    if job.returncode == INTERRUPTED:
-        raise KeyboardInterrupt
-    return job.returncode, errors
-
-
-def _child_environment() -> dict[str, str]:
-    """The ranks import cfopt from wherever this process did (an uninstalled checkout)."""
-    env = dict(os.environ)
-    here = str(Path(__file__).resolve().parent.parent)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (here, env.get("PYTHONPATH")) if p)
-    return env
+def _world_streams(entropy: Any) -> list[np.random.SeedSequence]:
+    """The topology's, the clocks', the latencies' and the losses' streams of a run."""
+    return np.random.SeedSequence(entropy).spawn(4)
 
 
 # ------------------------------------------------------------------------------ ranks
@@ -436,7 +426,7 @@ class _Rank(_Ticking):
     def _draw_the_world(self, entropy: Any) -> None:
         """Topology and clocks: the simulator's, the same on every rank; the injected
         latencies and losses: this rank's own generators."""
-        topology, clock, latency, loss = np.random.SeedSequence(entropy).spawn(4)
+        topology, clock, latency, loss = _world_streams(entropy)
         self.network = self.spec.build(self.mission, np.random.default_rng(topology))
         self.clocks = Clocks(self.spec, self.n, np.random.default_rng(clock))
         own_latency = latency.spawn(self.size)[self.rank]
