@@ -24,6 +24,7 @@ from cfopt.cli import (
     _error,
     finish_run,
     load_mission,
+    reserve_stdout,
 )
 
 __all__ = ["main"]
@@ -115,4 +116,5 @@ def _rank_main(argv: Sequence[str] | None) -> int:
 
 
 if __name__ == "__main__":
+    reserve_stdout()  # rank 0's --json is the whole of stdout, whatever MPI prints
     sys.exit(main())
