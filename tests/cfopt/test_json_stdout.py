@@ -90,6 +90,7 @@ def _commands(files: dict[str, Path]) -> dict[str, list[str]]:
     }  # fmt: skip
     if importlib.util.find_spec("mpi4py") is not None:
         commands["run-mpi"] = ["run", "grape-s", m, "--json", "--backend", "mpi", "--ranks", "2"]
+        commands["mpi-ranks"] = ["grape-s", m, "--json"]
     return commands
 
 
@@ -98,12 +99,15 @@ def _argv(name: str, args: list[str]) -> list[str]:
         return [sys.executable, "-c", AUDIT_WRAPPER, *args]
     if name == "reproduce":
         return [sys.executable, "-c", REPRODUCE_WRAPPER, *args]
+    if name == "mpi-ranks":  # the rank entry under mpiexec, rank 0 printing
+        mpiexec = str(Path(sys.executable).with_name("mpiexec"))
+        return [mpiexec, "-n", "2", sys.executable, "-m", "cfopt.mpi", *args]
     return [sys.executable, "-m", "cfopt", *args]
 
 
 NAMES = [
     "validate", "solve", "solve-assignment", "solve-time-limit", "run", "run-sda",
-    "run-network", "check", "audit", "reproduce", "run-mpi",
+    "run-network", "check", "audit", "reproduce", "run-mpi", "mpi-ranks",
 ]  # fmt: skip
 
 
