@@ -195,6 +195,13 @@ def test_cli_refuses_malformed_addresses_in_one_line(
     assert not (tmp_path / "s.sqlite").exists()
 
 
+def test_cli_reproduce_refuses_a_malformed_address_in_one_line(tmp_path: Path) -> None:
+    args = ["reproduce", "--missions", "1", "--centralized-only", "--quiet", "-o", "rep"]
+    ended = _finish(_start(args, "tls://127.0.0.1:8786", tmp_path / "s.sqlite"))
+    _one_error(ended, f"(the scheme 'tls' {UNSUPPORTED}")
+    assert not (tmp_path / "s.sqlite").exists()
+
+
 def test_code_help_and_readme_state_the_same_connect_timeout(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
