@@ -145,13 +145,16 @@ def _add_workers_option(sub: argparse.ArgumentParser) -> None:
 
 def _add_scheduler_option(sub: argparse.ArgumentParser) -> None:
     """``--scheduler ADDRESS|local:N``: run the trials on a dask cluster."""
+    from cfopt.cluster import CONNECT_TIMEOUT
+
     sub.add_argument(
         "--scheduler",
         default=None,
         metavar="ADDRESS|local:N",
-        help="run the trials on a dask cluster: a running scheduler's address (e.g. "
-        "tcp://host:8786) or local:N, a local cluster of N worker processes started for "
-        'this run; the store stays with this process (needs: pip install "cfopt[cluster]")',
+        help="run the trials on a dask cluster: a running scheduler's address, "
+        f"tcp://HOST:PORT or HOST:PORT, that must answer within {CONNECT_TIMEOUT:g} s, or "
+        "local:N, a local cluster of N worker processes started for this run; the store "
+        'stays with this process (needs: pip install "cfopt[cluster]")',
     )
 
 
@@ -166,7 +169,7 @@ def _trial_executor(args: argparse.Namespace) -> contextlib.AbstractContextManag
         )
     from cfopt.cluster import dask_executor, parse_scheduler
 
-    return dask_executor(parse_scheduler(args.scheduler))
+    return dask_executor(parse_scheduler(args.scheduler), logs=False)  # one error line
 
 
 # ----------------------------------------------------------------------- commands

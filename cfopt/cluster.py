@@ -1,9 +1,15 @@
 """Sweeps on a dask cluster: the executor behind ``cfopt sweep --scheduler``.
 
-``--scheduler`` takes the address of a running dask scheduler (``tcp://host:8786``) or
+``--scheduler`` takes the address of a running dask scheduler (``tcp://HOST:PORT`` or
+``HOST:PORT``; dask's other transports, tls, ucx, inproc and ws, are not supported) or
 ``local:N``, a :class:`distributed.LocalCluster` of ``N`` worker processes with one thread
 each, started for the sweep and torn down at its end.  :func:`dask_executor` gives a
 :class:`concurrent.futures.Executor` on it for :func:`cfopt.experiments.run_sweep`.
+
+A running scheduler must answer within :data:`CONNECT_TIMEOUT` seconds, the whole of it:
+the TCP connection, dask's handshake and the scheduler's first answer.  A server that
+accepts the connection and stays silent, or that answers with something other than dask's
+protocol (or is a dask worker), is refused by then with one error naming ``--scheduler``.
 
 The store stays with the caller: workers compute trials and return them, and only the
 calling process writes.  When a worker dies, dask gives its trials to other workers, up to
@@ -25,17 +31,20 @@ SchedulerSpec(address=None, local_workers=2)
 
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures as cf
 import contextlib
 import functools
+import ipaddress
 import logging
 import re
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any
+from typing import Any, TypeVar
 
 from cfopt.errors import MissionError, plural
 from cfopt.experiments import ExecutorFailed, WorkerDied
@@ -43,6 +52,7 @@ from cfopt.experiments import ExecutorFailed, WorkerDied
 __all__ = [
     "CONNECT_TIMEOUT",
     "INSTALL_HINT",
+    "SCHEMES",
     "DaskExecutor",
     "SchedulerLost",
     "SchedulerSpec",
@@ -50,14 +60,23 @@ __all__ = [
     "parse_scheduler",
 ]
 
-#: Seconds to reach a scheduler (and to reconnect to one that went away) before giving up.
+#: Seconds for a scheduler to answer (TCP connection, dask's handshake, its first answer),
+#: and to reconnect to one that went away, before giving up.
 CONNECT_TIMEOUT = 5.0
 #: Seconds a teardown waits for the client and a local cluster to close.
 CLOSE_TIMEOUT = 10.0
 #: How to get dask, for the error raised when it is missing.
 INSTALL_HINT = 'pip install "cfopt[cluster]"'
+#: The address schemes cfopt connects over (dask's tls, ucx, inproc and ws are not).
+SCHEMES = ("tcp",)
 _OPTION = "--scheduler"
 _LOCAL = re.compile(r"local:(\d{1,4})\Z")
+_FORMS = "tcp://HOST:PORT or HOST:PORT, e.g. tcp://127.0.0.1:8786"
+_HOST_LABEL = re.compile(r"[A-Za-z0-9_-]{1,63}\Z")
+_PORT = re.compile(r"[0-9]{1,5}\Z")
+_T = TypeVar("_T")
+#: Characters of an exception's text shown in an error line.
+_REASON = 160
 
 
 class SchedulerLost(ExecutorFailed):
@@ -88,22 +107,27 @@ class SchedulerSpec:
 def parse_scheduler(text: str) -> SchedulerSpec:
     """Parse ``--scheduler``: ``local:N`` (1 <= N <= 1024) or a scheduler address.
 
-    An address is anything else that is not empty, has no spaces and does not start with
-    ``local``; it is checked by connecting (:func:`dask_executor`).
+    An address is ``tcp://HOST:PORT`` or ``HOST:PORT`` (:data:`SCHEMES`): a host name, an
+    IPv4 address or an IPv6 one in brackets (``tcp://[::1]:8786``), and a port from 1 to
+    65535.  The scheme is lowercased; whether a scheduler answers there is checked by
+    connecting (:func:`dask_executor`).
 
     Raises
     ------
     cfopt.MissionError
-        Naming ``--scheduler``: ``local:`` without a whole number in range, or an empty
-        address or one with spaces.
+        Naming ``--scheduler`` and the problem: ``local:`` without a whole number in range,
+        an empty value or one with spaces, a scheme other than tcp, no host, a host that is
+        not one, no port or one out of range.
 
     >>> parse_scheduler("local:x")
     Traceback (most recent call last):
     ...
     cfopt.errors.MissionError: scheduler: must be local:N with N a whole number from 1 to ...
+    >>> parse_scheduler("TCP://[::1]:8786").address
+    'tcp://[::1]:8786'
     """
     value = str(text).strip()
-    if value.lower().startswith("local"):
+    if value.lower() == "local" or value.lower().startswith("local:"):
         match = _LOCAL.match(value)
         if match is None or not 1 <= int(match.group(1)) <= 1024:
             raise _error(
@@ -115,7 +139,55 @@ def parse_scheduler(text: str) -> SchedulerSpec:
         raise _error(
             f"must be a scheduler address such as tcp://host:8786, or local:N, got {text!r}"
         )
-    return SchedulerSpec(value, None)
+    return SchedulerSpec(_checked_address(value), None)
+
+
+def _checked_address(value: str) -> str:
+    """``value`` if it is ``tcp://HOST:PORT`` or ``HOST:PORT`` (the scheme lowercased)."""
+    scheme, sep, location = value.partition("://")
+    if not sep:
+        location = value
+    elif scheme.lower() not in SCHEMES:
+        raise _bad_address(
+            value,
+            f"the scheme {scheme!r} is not supported: cfopt connects over "
+            f"{', '.join(SCHEMES)} only, give {_FORMS}",
+        )
+    host, port = _host_and_port(value, location)
+    if not host:
+        raise _bad_address(value, f"no host: give {_FORMS}")
+    if port is None:
+        raise _bad_address(value, f"no port: give {_FORMS}")
+    if _PORT.match(port) is None or not 1 <= int(port) <= 65535:
+        raise _bad_address(value, f"the port must be a whole number from 1 to 65535, got {port!r}")
+    return f"{scheme.lower()}://{location}" if sep else location
+
+
+def _host_and_port(value: str, location: str) -> tuple[str, str | None]:
+    """Split ``HOST:PORT`` (``[IPv6]:PORT``), checking the host; the port is ``None`` when
+    there is none."""
+    if location.startswith("["):
+        host, bracket, rest = location[1:].partition("]")
+        if not bracket or rest[:1] not in ("", ":"):
+            raise _bad_address(value, "an IPv6 host goes in brackets, e.g. tcp://[::1]:8786")
+        try:
+            ipaddress.IPv6Address(host)
+        except ValueError:
+            raise _bad_address(value, f"{host!r} is not an IPv6 address") from None
+        return host, rest[1:] if rest else None
+    host, colon, port = location.rpartition(":")
+    if not colon:
+        host, port = location, None
+    elif ":" in host:
+        raise _bad_address(value, "an IPv6 host goes in brackets, e.g. tcp://[::1]:8786")
+    labels = host.removesuffix(".").split(".")
+    if host and (len(host) > 253 or not all(_HOST_LABEL.match(label) for label in labels)):
+        raise _bad_address(value, f"{host!r} is not a host name or an IP address")
+    return host, port
+
+
+def _bad_address(value: str, problem: str) -> MissionError:
+    return _error(f"not a scheduler address: {value!r} ({problem})")
 
 
 def _error(problem: str) -> MissionError:
@@ -252,7 +324,10 @@ def _killed_worker_type() -> type[BaseException]:
 # ----------------------------------------------------------------------- lifecycle
 @contextlib.contextmanager
 def dask_executor(
-    scheduler: str | SchedulerSpec, *, connect_timeout: float | None = None
+    scheduler: str | SchedulerSpec,
+    *,
+    connect_timeout: float | None = None,
+    logs: bool = True,
 ) -> Iterator[DaskExecutor]:
     """An executor on a dask cluster, for the ``with`` block; torn down at its end.
 
@@ -261,8 +336,14 @@ def dask_executor(
     scheduler : str or SchedulerSpec
         ``local:N`` or a scheduler's address (:func:`parse_scheduler`).
     connect_timeout : float, optional
-        Seconds to reach the scheduler, and to reconnect after a lost connection
-        (default: :data:`CONNECT_TIMEOUT`).
+        Seconds for the scheduler to answer (the TCP connection, dask's handshake and
+        the scheduler's first answer, all of it), and to reconnect after a lost
+        connection (default: :data:`CONNECT_TIMEOUT`).
+    logs : bool, default True
+        ``False`` drops every log record of the process while the executor lives, from
+        its start to the end of its teardown (dask's, tornado's and asyncio's loggers
+        print tracebacks to stderr when a scheduler goes away; the command line says
+        what went wrong in one line instead).
 
     Yields
     ------
@@ -272,8 +353,8 @@ def dask_executor(
     ------
     cfopt.MissionError
         Naming ``--scheduler``: dask is not installed, the value is malformed, the
-        scheduler cannot be reached within ``connect_timeout``, or a local cluster cannot
-        start.
+        scheduler does not answer as one within ``connect_timeout``, or a local cluster
+        cannot start.
 
     Notes
     -----
@@ -281,11 +362,38 @@ def dask_executor(
     (the same :func:`cfopt.experiments.code_version`), or the connection is refused.
     At the end, normal or not (an exception, Ctrl-C), the tasks not finished are
     cancelled and the client is closed; a local cluster's workers are stopped and its
-    scheduler closed.  A remote cluster keeps running.
+    scheduler closed.  A remote cluster keeps running.  A connection given up at the
+    deadline leaves a thread waiting on it in the background; a client it makes late is
+    closed.
     """
-    spec = scheduler if isinstance(scheduler, SchedulerSpec) else parse_scheduler(scheduler)
+    label = scheduler.label if isinstance(scheduler, SchedulerSpec) else scheduler
+    spec = parse_scheduler(label)
     distributed = import_distributed()
     timeout = CONNECT_TIMEOUT if connect_timeout is None else connect_timeout
+    with contextlib.nullcontext() if logs else _no_logging():
+        client, cluster = _open(distributed, spec, timeout)
+        executor = DaskExecutor(client, spec.label)
+        try:
+            yield executor
+        finally:
+            executor.shutdown(wait=False, cancel_futures=True)
+            _close(client)
+            _close(cluster)
+
+
+@contextlib.contextmanager
+def _no_logging() -> Iterator[None]:
+    """No log record is emitted in the block, whichever its logger."""
+    previous = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(previous)
+
+
+def _open(distributed: ModuleType, spec: SchedulerSpec, timeout: float) -> tuple[Any, Any]:
+    """The client, and the local cluster it is on (``None`` for a running scheduler)."""
     cluster = _start_local(distributed, spec.local_workers) if spec.address is None else None
     try:
         client = _connect(distributed, spec, cluster, timeout)
@@ -298,13 +406,7 @@ def dask_executor(
         except BaseException:
             _close(client)
             raise
-    executor = DaskExecutor(client, spec.label)
-    try:
-        yield executor
-    finally:
-        executor.shutdown(wait=False, cancel_futures=True)
-        _close(client)
-        _close(cluster)
+    return client, cluster
 
 
 def _start_local(distributed: ModuleType, workers: int | None) -> Any:
@@ -337,31 +439,98 @@ def dask_setup(worker: Any) -> None:
 
 
 def _connect(distributed: ModuleType, spec: SchedulerSpec, cluster: Any, timeout: float) -> Any:
-    """A client of ``cluster`` (local) or of the scheduler at ``spec.address``."""
+    """A client of ``cluster`` (local) or of the scheduler at ``spec.address``, within
+    ``timeout`` seconds; a running scheduler is first asked what it is."""
+    deadline = time.monotonic() + timeout
     if cluster is None:
-        _check_address(spec.label)
+        _require_scheduler(distributed, spec, deadline, timeout)
     target = cluster if cluster is not None else spec.address
+    start = functools.partial(distributed.Client, target, timeout=timeout, set_as_default=False)
     try:
-        return distributed.Client(target, timeout=timeout, set_as_default=False)
+        return _by(deadline, start, late=_close)
     except (OSError, TimeoutError) as exc:
-        raise _error(
-            f"cannot reach the scheduler at {spec.label} within {timeout:g} s ({exc})"
-        ) from None
+        raise _unreachable(spec.label, timeout, exc) from None
+    except Exception as exc:  # it answered identity, then turned the client away
+        raise _error(f"{spec.label}: the scheduler refused this client ({_why(exc)})") from None
 
 
-def _check_address(address: str) -> None:
-    """Refuse an address whose scheme dask does not know, before any client exists (a
-    client that failed to start would complain again when garbage-collected)."""
-    from distributed.comm.addressing import parse_address
-    from distributed.comm.registry import get_backend
-
+def _require_scheduler(
+    distributed: ModuleType, spec: SchedulerSpec, deadline: float, timeout: float
+) -> None:
+    """Refuse a server at ``spec.address`` that has not answered dask's ``identity`` call
+    as a scheduler by ``deadline``: one that stays silent, one whose bytes are not dask's
+    protocol, a dask worker.  (A client of such a server waits forever for the handshake
+    or fails with a traceback, and cannot be closed.)"""
+    address = str(spec.address)
     try:
-        scheme, location = parse_address(address)
-        get_backend(scheme)
-    except (ValueError, TypeError) as exc:
-        raise _error(f"not a scheduler address: {address!r} ({exc})") from None
-    if not location:
-        raise _error(f"not a scheduler address: {address!r} (no host)")
+        identity = _by(deadline, lambda: asyncio.run(_identity(distributed, address, deadline)))
+    except (OSError, TimeoutError) as exc:
+        raise _unreachable(spec.label, timeout, exc) from None
+    except Exception as exc:  # bytes that are not dask's protocol fail its decoders anyhow
+        raise _error(
+            f"{spec.label}: not a dask scheduler (its answer is not dask's protocol: {_why(exc)})"
+        ) from None
+    kind = identity.get("type") if isinstance(identity, dict) else None
+    if kind != "Scheduler":
+        what = f"says it is a dask {kind}" if isinstance(kind, str) else "gave no identity"
+        raise _error(f"{spec.label}: not a dask scheduler (it {what})")
+
+
+async def _identity(distributed: ModuleType, address: str, deadline: float) -> Any:
+    """The answer of the server at ``address`` to dask's ``identity`` call, by
+    ``deadline`` (:func:`time.monotonic`)."""
+    seconds = max(0.0, deadline - time.monotonic())
+    # dask's own connect gives up a little earlier, so that its reason (connection
+    # refused, unknown host) is the one told rather than the deadline's
+    async with (
+        asyncio.timeout(seconds),
+        distributed.rpc(address, timeout=0.9 * seconds) as server,
+    ):
+        return await server.identity()
+
+
+def _by(deadline: float, call: Callable[[], _T], *, late: Callable[[_T], Any] | None = None) -> _T:
+    """``call()`` in a thread of its own, given up at ``deadline`` (:func:`time.monotonic`).
+
+    Raises
+    ------
+    TimeoutError
+        At the deadline, if the call has not returned; what it returns later goes to
+        ``late`` (as when the wait is interrupted, by Ctrl-C).
+    """
+    box: cf.Future[_T] = cf.Future()
+
+    def run() -> None:
+        try:
+            box.set_result(call())
+        except BaseException as exc:
+            box.set_exception(exc)
+
+    def hand_over(done: cf.Future[_T]) -> None:
+        if late is not None and done.exception() is None:
+            late(done.result())
+
+    threading.Thread(target=run, name="cfopt-dask-connect", daemon=True).start()
+    try:
+        return box.result(timeout=max(0.0, deadline - time.monotonic()))
+    except BaseException:
+        box.add_done_callback(hand_over)
+        raise
+
+
+def _unreachable(label: str, timeout: float, exc: BaseException) -> MissionError:
+    return _error(f"cannot reach the scheduler at {label} within {timeout:g} s ({_why(exc)})")
+
+
+def _why(exc: BaseException) -> str:
+    """What went wrong, on one line: the text of the first cause of ``exc``."""
+    while isinstance(exc.__cause__, Exception):
+        exc = exc.__cause__
+    if isinstance(exc, TimeoutError):
+        return "no answer"
+    text = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+    text = " ".join(text.split()) or type(exc).__name__
+    return text if len(text) <= _REASON else text[: _REASON - 3] + "..."
 
 
 def _check_workers(client: Any, label: str) -> None:

@@ -346,8 +346,8 @@ def test_a_lost_scheduler_stops_the_sweep_keeping_what_it_stored(tmp_path: Path)
     from distributed import LocalCluster
 
     store = tmp_path / "s.sqlite"
-    cluster = LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    cluster = LocalCluster(  # in this process, on tcp (cfopt refuses dask's inproc://)
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=None
     )
     address = cluster.scheduler_address
     try:
