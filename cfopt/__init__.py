@@ -11,6 +11,7 @@ The data model (:class:`Mission`, :class:`Assignment`), the seed's instance fami
 """
 
 from cfopt.assignment import ASSIGNMENT_FORMAT, UNASSIGNED, Assignment
+from cfopt.checks import require_mission
 from cfopt.errors import MissionError
 from cfopt.exact import ExactResult, ExactStatus, solve_exact
 from cfopt.generate import (
@@ -20,7 +21,7 @@ from cfopt.generate import (
     paper_distributed_grid,
     paper_grid,
 )
-from cfopt.mission import MISSION_FORMAT, Mission, require_mission
+from cfopt.mission import MISSION_FORMAT, Mission
 
 __version__ = "0.1.0"
 

@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import IO, Any
 
 from cfopt._limits import format_bytes, require_memory
-from cfopt.errors import MissionError, describe, is_unicode, key_path
+from cfopt.checks import require_bool
+from cfopt.errors import MissionError, MissionTypeError, describe, is_unicode, key_path
 
 __all__ = [
     "MAX_DEPTH",
@@ -24,6 +25,8 @@ __all__ = [
     "check_folder",
     "check_free_json",
     "check_keys",
+    "check_output",
+    "check_source",
     "check_text",
     "expect_list",
     "expect_object",
@@ -52,6 +55,33 @@ def _object_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     flagged = DuplicateKeysObject(result)
     flagged.duplicates = tuple(dict.fromkeys(repeated))
     return flagged
+
+
+def check_source(source: Any) -> Source:
+    """``source`` if it is a file path (``str`` or ``os.PathLike``) or a text stream (an
+    object with ``read()``); :class:`~cfopt.errors.MissionTypeError` naming it otherwise."""
+    if _is_path(source) or (not isinstance(source, bytes) and hasattr(source, "read")):
+        return source
+    raise MissionTypeError(
+        f"source: must be a file path or a text stream, got {type(source).__name__}"
+    )
+
+
+def check_output(path: Any, overwrite: Any) -> None:
+    """Check the ``path`` (None, or a file path) and ``overwrite`` arguments of a writer."""
+    if path is not None and not _is_path(path):
+        raise MissionTypeError(
+            f"path: must be a file path (str or os.PathLike) or None, got {type(path).__name__}"
+        )
+    if path is not None and "\0" in os.fspath(path):
+        raise MissionError(f"{os.fspath(path)}: not a file name (it holds a NUL character)")
+    require_bool("overwrite", overwrite)
+
+
+def _is_path(value: Any) -> bool:
+    return isinstance(value, str) or (
+        isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)
+    )
 
 
 def source_name(source: Source) -> str:
@@ -102,6 +132,8 @@ def _read_path(path: str | os.PathLike[str], name: str) -> str:
         raise MissionError(f"{name}: permission denied") from None
     except OSError as exc:
         raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    except ValueError:  # a NUL character
+        raise MissionError(f"{name}: not a file name (it holds a NUL character)") from None
     info = os.fstat(fd)
     if not stat.S_ISREG(info.st_mode):
         os.close(fd)
@@ -167,7 +199,7 @@ def read_json(source: Source) -> tuple[Any, str]:
     parse in this machine's memory are refused with the memory they would need, and
     integers of more than 4300 digits are refused with their line and column.
     """
-    name = source_name(source)
+    name = source_name(check_source(source))
     text = _read_text(source, name)
     if not text.strip():
         raise MissionError(f"{name}: empty file, expected a JSON object")

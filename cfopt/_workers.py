@@ -31,7 +31,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from cfopt.errors import parameter_error
+from cfopt.checks import require_int
 
 __all__ = [
     "default_workers",
@@ -69,8 +69,7 @@ def make_executor(workers: int | None) -> cf.Executor:
     """``workers`` processes that die with this one (default: the usable CPUs); in-process
     for 1."""
     n = default_workers() if workers is None else workers
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise parameter_error("workers", f"must be a whole number >= 1, got {workers!r}")
+    require_int("workers", n, minimum=1, flag=True)
     if n == 1:
         return InlineExecutor()
     return cf.ProcessPoolExecutor(max_workers=n, initializer=_worker_setup, initargs=(os.getpid(),))

@@ -13,13 +13,15 @@ import numpy.typing as npt
 from cfopt._jsonio import (
     Source,
     check_keys,
+    check_output,
     expect_list,
     expect_object,
     layout_json,
     read_json,
     write_text,
 )
-from cfopt.errors import MissionError, describe
+from cfopt.checks import is_whole, require_int, require_mission, shown
+from cfopt.errors import MissionError, MissionTypeError, describe
 from cfopt.mission import Mission
 
 __all__ = ["ASSIGNMENT_FORMAT", "UNASSIGNED", "Assignment"]
@@ -80,8 +82,16 @@ class Assignment:
     # ------------------------------------------------------------------ construction
     @classmethod
     def empty(cls, mission: Mission | int) -> Assignment:
-        """Every robot unassigned (the seed's initial partition)."""
-        n = mission if isinstance(mission, int) else mission.n_robots
+        """Every robot unassigned (the seed's initial partition) of ``mission``, or of that
+        many robots."""
+        if isinstance(mission, Mission):
+            n = mission.n_robots
+        elif is_whole(mission):
+            n = require_int("mission", mission, minimum=0)
+        else:
+            raise MissionTypeError(
+                f"mission: must be a cfopt.Mission or a number of robots, got {shown(mission)}"
+            )
         blank = np.full(n, UNASSIGNED, dtype=np.int64)
         return cls(task=blank, service=blank)
 
@@ -93,11 +103,12 @@ class Assignment:
         robot, task or service, a service the robot does not have or one the task does
         not require raise :class:`MissionError` naming the entry.
         """
-        return _parse_assignment(mission, data)
+        return _parse_assignment(require_mission(mission), data)
 
     @classmethod
     def from_json(cls, mission: Mission, source: Source) -> Assignment:
         """Load an assignment file (path or text stream) for ``mission``."""
+        require_mission(mission)
         value, name = read_json(source)
         try:
             return _parse_assignment(mission, value)
@@ -107,6 +118,7 @@ class Assignment:
     # --------------------------------------------------------------------- checking
     def validate(self, mission: Mission) -> None:
         """Raise :class:`MissionError` unless this assignment is valid for ``mission``."""
+        require_mission(mission)
         n, m, s = mission.n_robots, mission.n_tasks, mission.n_services
         if self.task.size != n:
             raise MissionError(f"assignment: has {self.task.size} robots, the mission has {n}")
@@ -156,12 +168,14 @@ class Assignment:
 
     def utility(self, mission: Mission) -> float:
         """The utility earned: the sum of the completed tasks' utilities."""
-        return math.fsum(mission.utilities[self.completed_tasks(mission)].tolist())
+        completed = self.completed_tasks(mission)
+        return math.fsum(mission.utilities[completed].tolist())
 
     def percent_utility(self, mission: Mission) -> float:
         """Utility as a percentage of the mission's total (100 when there is nothing to earn)."""
+        utility = self.utility(mission)
         total = mission.total_utility
-        return 100.0 if total == 0 else 100.0 * (self.utility(mission) / total)  # no overflow
+        return 100.0 if total == 0 else 100.0 * (utility / total)  # no overflow
 
     # ---------------------------------------------------------------------- writing
     def to_dict(self, mission: Mission) -> dict[str, Any]:
@@ -187,6 +201,7 @@ class Assignment:
         overwrite: bool = False,
     ) -> str:
         """The assignment as JSON text (one entry per line); written to ``path`` if given."""
+        check_output(path, overwrite)
         text = layout_json(self.to_dict(mission))
         if path is not None:
             write_text(text, path, overwrite=overwrite)

@@ -6,7 +6,7 @@ import json
 import re
 from typing import Any
 
-__all__ = ["MissionError", "describe", "key_path", "parameter_error", "plural"]
+__all__ = ["MissionError", "MissionTypeError", "describe", "key_path", "parameter_error", "plural"]
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 _MAX_SHOWN = 60
@@ -34,6 +34,17 @@ class MissionError(ValueError):
     def prefixed(self, prefix: str) -> MissionError:
         """The same error with ``prefix: `` in front of both wordings (e.g. a file name)."""
         return MissionError(f"{prefix}: {self}", cli=f"{prefix}: {self.cli_message}")
+
+
+class MissionTypeError(MissionError, TypeError):
+    """A :class:`MissionError` about an argument of the wrong type; also a :class:`TypeError`.
+
+    ``except TypeError`` catches it as Python code expects, and ``except MissionError``
+    (the command line's one error handler) as every other bad input.
+
+    >>> issubclass(MissionTypeError, TypeError), issubclass(MissionTypeError, ValueError)
+    (True, True)
+    """
 
 
 def parameter_error(name: str, problem: str) -> MissionError:

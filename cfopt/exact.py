@@ -55,16 +55,27 @@ from cfopt._exact_groups import (
     task_groups,
 )
 from cfopt.assignment import UNASSIGNED, Assignment
-from cfopt.errors import MissionError, describe
-from cfopt.mission import Mission, require_mission
+from cfopt.checks import require_assignment, require_choice, require_mission, require_number
+from cfopt.errors import MissionTypeError
+from cfopt.mission import Mission
 
 if TYPE_CHECKING:  # cvxpy takes a second or two to import: only solve_exact pays for it
     import cvxpy as cp
 
-__all__ = ["FORMULATIONS", "TIME_LIMIT_SLACK", "ExactResult", "ExactStatus", "solve_exact"]
+__all__ = [
+    "FORMULATIONS",
+    "MAX_TIME_LIMIT",
+    "TIME_LIMIT_SLACK",
+    "ExactResult",
+    "ExactStatus",
+    "solve_exact",
+]
 
 #: The formulations :func:`solve_exact` accepts.
 FORMULATIONS = ("aggregated", "assignment")
+#: The longest time limit :func:`solve_exact` takes, in seconds (about 31 years; the
+#: operating system's timers end not far beyond).
+MAX_TIME_LIMIT = 1e9
 
 #: :func:`solve_exact` returns within ``time_limit`` plus this many seconds (see its
 #: Notes for the exceptions: a loaded machine, models of a million variables or more).
@@ -169,8 +180,19 @@ class ExactResult:
     seconds: float
     formulation: str
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, ExactStatus):
+            raise MissionTypeError(
+                f"status: must be a cfopt.ExactStatus, got {type(self.status).__name__}"
+            )
+        for name in ("utility", "bound", "gap", "total_utility", "seconds"):
+            require_number(name, getattr(self, name), finite=False)
+        require_assignment(self.assignment)
+        require_choice("formulation", self.formulation, FORMULATIONS)
+
     def to_dict(self, mission: Mission) -> dict[str, Any]:
         """The ``cfopt solve --json`` object for this result."""
+        require_mission(mission)
         return {
             "status": self.status.value,
             "utility": self.utility,
@@ -196,8 +218,9 @@ def solve_exact(
     ----------
     mission : Mission
     time_limit : float, optional
-        Seconds the whole call may take: presolve, grouping, model building (and cvxpy's
-        compilation for the assignment model), HiGHS and recovery.  The call returns
+        Seconds (at most :data:`MAX_TIME_LIMIT`) the whole call may take: presolve,
+        grouping, model building (and cvxpy's compilation for the assignment model), HiGHS
+        and recovery.  The call returns
         within ``time_limit + TIME_LIMIT_SLACK`` (0.25 s; see the Notes for when it can
         take longer), apart from the first call in a process, which imports highspy
         (about 0.1 s; cvxpy, about a second, for the assignment model) before its clock
@@ -375,28 +398,17 @@ def _check_options(
     time_limit: Any, formulation: Any, mip_gap: Any
 ) -> tuple[float | None, str, float]:
     if time_limit is not None:
-        if (
-            isinstance(time_limit, bool)
-            or not isinstance(time_limit, int | float)
-            or not math.isfinite(time_limit)
-            or time_limit <= 0
-        ):
-            raise MissionError(
-                f"time_limit: must be a finite number of seconds > 0 or None, "
-                f"got {describe(time_limit)}"
-            )
-        time_limit = float(time_limit)
-    if formulation not in FORMULATIONS:
-        raise MissionError(
-            f"formulation: must be one of {', '.join(FORMULATIONS)}, got {describe(formulation)}"
+        time_limit = require_number(
+            "time_limit",
+            time_limit,
+            above=0,
+            maximum=MAX_TIME_LIMIT,
+            what="a number of seconds",
+            or_none=True,
         )
-    if (
-        isinstance(mip_gap, bool)
-        or not isinstance(mip_gap, int | float)
-        or not (0.0 <= mip_gap < 1.0)
-    ):
-        raise MissionError(f"mip_gap: must be a number in [0, 1), got {describe(mip_gap)}")
-    return time_limit, str(formulation), float(mip_gap)
+    formulation = require_choice("formulation", formulation, FORMULATIONS)
+    mip_gap = require_number("mip_gap", mip_gap, minimum=0, below=1, what="a number")
+    return time_limit, formulation, mip_gap
 
 
 # ----------------------------------------------------------------------- presolve

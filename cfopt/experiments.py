@@ -61,6 +61,7 @@ from cfopt._jsonio import read_json, read_text_file
 from cfopt._limits import require_memory
 from cfopt._progress import Progress
 from cfopt._workers import default_workers, make_executor, stop_executor
+from cfopt.checks import require_int, require_number
 from cfopt.errors import MissionError, describe, parameter_error, plural
 from cfopt.generate import SEED_NETWORK, GridCell, paper_distributed_grid, paper_grid
 from cfopt.store import EXACT, ResultStore, Trial, store_lock
@@ -378,10 +379,8 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
     if not cells:
         raise MissionError("no cells: give robots = [...] (a product) or [[cells]] entries")
     missions = data.get("missions")
-    if missions is not None and (
-        isinstance(missions, bool) or not isinstance(missions, int) or missions < 1
-    ):
-        raise MissionError(f"missions: must be a whole number >= 1, got {describe(missions)}")
+    if missions is not None:
+        require_int("missions", missions, minimum=1)
     return tuple(dict.fromkeys(cells)), missions
 
 
@@ -636,9 +635,7 @@ class Sweep:
             raise MissionError("cells: must be a non-empty sequence of cfopt.GridCell")
         object.__setattr__(self, "cells", tuple(dict.fromkeys(_canonical(c) for c in cells)))
         for name, low in (("missions", 1), ("base_seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise parameter_error(name, f"must be a whole number >= {low}, got {value!r}")
+            require_int(name, getattr(self, name), minimum=low, flag=True)
         from heuristics.registry import algorithm_names, get_algorithm
 
         names = algorithm_names() if self.algorithms is None else list(self.algorithms)
@@ -648,12 +645,14 @@ class Sweep:
         object.__setattr__(
             self, "algorithms", (EXACT, *dict.fromkeys(n for n in names if n != EXACT))
         )
-        t = self.time_limit
-        if t is not None and (
-            isinstance(t, bool) or not isinstance(t, int | float) or not t > 0 or t == math.inf
-        ):
-            raise parameter_error(
-                "time_limit", f"must be a number of seconds > 0 or None, got {describe(t)}"
+        if self.time_limit is not None:
+            require_number(
+                "time_limit",
+                self.time_limit,
+                above=0,
+                what="a number of seconds",
+                or_none=True,
+                flag=True,
             )
         trials = f"{self.size} trials"
         require_memory(

@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from cfopt._limits import require_memory
 from cfopt.assignment import Assignment
+from cfopt.checks import SeedLike, require_int, require_number, require_seed
 from cfopt.errors import describe, parameter_error, plural
 from cfopt.mission import MAX_COUNT, Mission
 
@@ -36,7 +37,6 @@ __all__ = [
 
 PAPER_MISSIONS_PER_CELL = 25
 _UTILITY_RANGE = (1, 50)
-SeedLike = int | np.random.Generator | None
 
 
 def task_count(robots: int, percent_tasks: float) -> int:
@@ -133,7 +133,7 @@ def generate_with_witness(
     )
     m = task_count(n, p)
     total = math.floor(load * n + 0.5)
-    _check_seed(seed)
+    require_seed("seed", seed)
     if seed is None:  # draw a fresh seed, but record it so the mission can be replayed
         seed = int(np.random.default_rng().integers(2**32))
     rng = np.random.default_rng(seed)
@@ -182,17 +182,10 @@ def _oversubscribe(
         np.add.at(requirements[j], rng.choice(needed, size=per_task[j]), 1)
 
 
-def _whole(value: Any, name: str, low: int, high: float = math.inf) -> int:
+def _whole(value: Any, name: str, low: int, high: int | None = None) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)  # a grid file's 100.0 (or 1e22, refused below) is a whole number
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, numbers.Integral)
-        or not low <= value <= high
-    ):
-        bound = f">= {low}" if high == math.inf else f"between {low} and {high}"
-        raise parameter_error(name, f"must be a whole number {bound}, got {describe(value)}")
-    return int(value)
+    return require_int(name, value, minimum=low, maximum=high, flag=True)
 
 
 #: Bytes the generator and the mission it returns take per robot and service type, per
@@ -208,7 +201,8 @@ def _check_size(n: int, m: int, s: int, total: int) -> None:
         _BYTES_PER_ROBOT_SERVICE * n * s + _BYTES_PER_ROBOT * n + _BYTES_PER_TASK_SERVICE * m * s
     )
     what = f"{_count_text(n)} robots, {_count_text(m)} tasks and {_count_text(s)} service types"
-    require_memory(needed, f"robots: {what}", cli=f"--robots: {what}")
+    larger = "service_types" if s > n else "robots"  # the parameter to blame
+    require_memory(needed, f"{larger}: {what}", cli=f"--{larger.replace('_', '-')}: {what}")
     if total > MAX_COUNT:
         raise parameter_error(
             "load",
@@ -231,12 +225,7 @@ def _check_parameters(
     s = _whole(service_types, "service_types", 1)
     k = _whole(services_per_robot, "services_per_robot", 1, s)
     for name, value in (("percent_tasks", percent_tasks), ("load", load)):
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, numbers.Real)
-            or not (math.isfinite(value) and value > 0)
-        ):
-            raise parameter_error(name, f"must be a finite number > 0, got {describe(value)}")
+        require_number(name, value, above=0, flag=True)
     if percent_tasks > 100:
         raise parameter_error(
             "percent_tasks", f"must be at most 100, got {describe(percent_tasks)}"
@@ -251,15 +240,6 @@ def _check_parameters(
         )
     _check_size(n, m, s, total)
     return n, float(percent_tasks), s, k, float(load)
-
-
-def _check_seed(seed: Any) -> None:
-    if seed is None or isinstance(seed, np.random.Generator):
-        return
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise parameter_error(
-            "seed", f"must be None, a whole number >= 0 or a numpy Generator, got {describe(seed)}"
-        )
 
 
 def _seed_label(seed: SeedLike) -> str:
@@ -324,9 +304,11 @@ class GridCell:
         return label if self.network is None else f"{label} net={self.network}"
 
     def mission_seed(self, index: int, base_seed: int = 0) -> int:
-        """The integer seed of this cell's ``index``-th mission (``cfopt generate --seed``)."""
+        """The integer seed of this cell's ``index``-th mission (``cfopt generate --seed``);
+        ``index`` and ``base_seed`` are whole numbers >= 0."""
+        index = require_int("index", index, minimum=0)
         key = [
-            base_seed,
+            require_int("base_seed", base_seed, minimum=0),
             self.robots,
             round(self.percent_tasks * 1000),
             self.service_types,
@@ -350,9 +332,10 @@ class GridCell:
     def missions(
         self, count: int = PAPER_MISSIONS_PER_CELL, base_seed: int = 0
     ) -> Iterator[Mission]:
-        """The first ``count`` missions of this cell."""
-        for index in range(count):
-            yield self.mission(index, base_seed)
+        """The first ``count`` missions of this cell (generated one at a time)."""
+        count = require_int("count", count, minimum=0)
+        base_seed = require_int("base_seed", base_seed, minimum=0)
+        return (self.mission(index, base_seed) for index in range(count))
 
 
 _COMPOSITIONS = ((5, 1), (5, 5), (10, 1), (10, 5))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from types import MappingProxyType
@@ -24,6 +24,7 @@ from cfopt._jsonio import (
     Source,
     check_free_json,
     check_keys,
+    check_output,
     check_text,
     expect_list,
     expect_object,
@@ -31,7 +32,8 @@ from cfopt._jsonio import (
     read_json,
     write_text,
 )
-from cfopt.errors import MissionError, describe, is_unicode, key_path
+from cfopt.checks import is_real, is_whole, shown
+from cfopt.errors import MissionError, MissionTypeError, describe, is_unicode, key_path
 
 __all__ = ["MAX_COUNT", "MISSION_FORMAT", "Mission", "MissionError"]
 
@@ -98,20 +100,23 @@ class Mission:
         services = _id_tuple(self.services, "services", "service name")
         if not services:
             raise MissionError("services: must list at least one service")
-        robot_ids = _id_tuple(self.robot_ids, "robots", "robot id")
-        task_ids = _id_tuple(self.task_ids, "tasks", "task id")
+        robot_ids = _id_tuple(self.robot_ids, "robots", "robot id", argument="robot_ids")
+        task_ids = _id_tuple(self.task_ids, "tasks", "task id", argument="task_ids")
         n, m, s = len(robot_ids), len(task_ids), len(services)
-        capabilities = _frozen_array(self.capabilities, np.bool_, (n, s), "capabilities")
-        requirements = _frozen_array(self.requirements, np.int64, (m, s), "requirements")
-        utilities = _frozen_array(self.utilities, np.float64, (m,), "utilities")
+        capabilities = _frozen_array(
+            self.capabilities, np.bool_, (n, s), "capabilities", "robots x services"
+        )
+        requirements = _frozen_array(
+            self.requirements, np.int64, (m, s), "requirements", "tasks x services"
+        )
+        utilities = _frozen_array(self.utilities, np.float64, (m,), "utilities", "tasks")
         _check_requirements(requirements, task_ids, services)
         _check_utilities(utilities, task_ids)
         if self.name is not None and (not isinstance(self.name, str) or not is_unicode(self.name)):
-            raise MissionError(
-                f"name: must be a string of valid Unicode, got {describe(self.name)}"
-            )
+            kind = MissionError if isinstance(self.name, str) else MissionTypeError
+            raise kind(f"name: must be a string of valid Unicode, got {describe(self.name)}")
         if self.metadata is not None and not isinstance(self.metadata, Mapping):
-            raise MissionError(f"metadata: must be an object, got {describe(self.metadata)}")
+            raise MissionTypeError(f"metadata: must be an object, got {describe(self.metadata)}")
         if self.metadata is not None:
             check_free_json(self.metadata, "metadata")
         for attr, value in (
@@ -220,18 +225,18 @@ class Mission:
         >>> Mission.from_arrays([[1, 0], [1, 1]], [[2, 0]], [5.0]).to_dict()["tasks"]
         [{'id': 't0', 'utility': 5, 'requires': {'s0': 2}}]
         """
-        caps = np.asarray(capabilities)
-        reqs = np.asarray(requirements)
+        caps = _array(capabilities, "capabilities")
+        reqs = _array(requirements, "requirements")
         if caps.ndim != 2 or reqs.ndim != 2:
             raise MissionError("capabilities and requirements must be 2-D arrays")
         n_services = caps.shape[1]
         return cls(
-            services=tuple(services) if services is not None else _names("s", n_services),
-            robot_ids=tuple(robot_ids) if robot_ids is not None else _names("r", caps.shape[0]),
-            task_ids=tuple(task_ids) if task_ids is not None else _names("t", reqs.shape[0]),
+            services=services if services is not None else _names("s", n_services),
+            robot_ids=robot_ids if robot_ids is not None else _names("r", caps.shape[0]),
+            task_ids=task_ids if task_ids is not None else _names("t", reqs.shape[0]),
             capabilities=caps,
             requirements=reqs,
-            utilities=np.asarray(utilities, dtype=float).reshape(-1),
+            utilities=_array(utilities, "utilities", float).reshape(-1),
             name=name,
             metadata=metadata,
         )
@@ -309,6 +314,7 @@ class Mission:
         The text is a pure function of the mission (same mission, same bytes).  An
         existing file is replaced only with ``overwrite=True``.
         """
+        check_output(path, overwrite)
         text = layout_json(self.to_dict())
         if path is not None:
             write_text(text, path, overwrite=overwrite)
@@ -323,27 +329,18 @@ class Mission:
         return [list(per_kind[k]) for k in which.reshape(-1).tolist()]
 
 
-def require_mission(value: Any) -> Mission:
-    """Return ``value`` if it is a :class:`Mission`; raise :class:`MissionError` otherwise.
-
-    The one argument check every solver, heuristic and checker entry point shares.
-
-    >>> require_mission("m.json")
-    Traceback (most recent call last):
-    ...
-    cfopt.errors.MissionError: mission: must be a cfopt.Mission, got str
-    """
-    if not isinstance(value, Mission):
-        raise MissionError(f"mission: must be a cfopt.Mission, got {type(value).__name__}")
-    return value
-
-
 # ---------------------------------------------------------------------- array checks
 def _names(prefix: str, count: int) -> tuple[str, ...]:
     return tuple(f"{prefix}{i}" for i in range(count))
 
 
-def _id_tuple(values: Sequence[str], place: str, what: str) -> tuple[str, ...]:
+def _id_tuple(
+    values: Sequence[str], place: str, what: str, *, argument: str | None = None
+) -> tuple[str, ...]:
+    if isinstance(values, str | bytes) or not isinstance(values, Iterable):
+        raise MissionTypeError(
+            f"{argument or place}: must be a sequence of strings ({what}s), got {shown(values)}"
+        )
     out = tuple(values)
     seen: dict[str, int] = {}
     for index, value in enumerate(out):
@@ -357,14 +354,23 @@ def _id_tuple(values: Sequence[str], place: str, what: str) -> tuple[str, ...]:
     return out
 
 
+def _array(value: npt.ArrayLike, place: str, dtype: type | None = None) -> npt.NDArray[Any]:
+    """``numpy.asarray(value)``, refusing what is not an array (ragged lists, text) by name."""
+    try:
+        return np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        what = "an array of numbers" if dtype is float else "an array"
+        raise MissionError(f"{place}: must be {what}, got {shown(value)}") from None
+
+
 def _frozen_array(
-    value: npt.ArrayLike, dtype: type, shape: tuple[int, ...], place: str
+    value: npt.ArrayLike, dtype: type, shape: tuple[int, ...], place: str, axes: str
 ) -> npt.NDArray[Any]:
-    raw = np.asarray(value)
+    raw = _array(value, place)
     if raw.size == 0:
         raw = raw.reshape(shape) if raw.size == math.prod(shape) else raw
     if raw.shape != shape:
-        raise MissionError(f"{place}: expected shape {shape}, got {raw.shape}")
+        raise MissionError(f"{place}: expected shape {shape} ({axes}), got {raw.shape}")
     if dtype is np.int64:
         if raw.dtype.kind not in "iub":
             raise MissionError(f"{place}: must hold whole numbers, got dtype {raw.dtype}")
@@ -519,9 +525,8 @@ def _parse_robots(value: Any, index: Mapping[str, int]) -> tuple[list[str], npt.
 
 
 def _parse_count(value: Any, place: str) -> int:
-    whole = not isinstance(value, bool) and (
-        isinstance(value, int)
-        or (isinstance(value, float) and math.isfinite(value) and value.is_integer())
+    whole = is_whole(value) or (
+        isinstance(value, float) and math.isfinite(value) and value.is_integer()
     )
     if not whole or value < 1:
         raise MissionError(f"{place}: must be a whole number >= 1, got {describe(value)}")
@@ -531,7 +536,7 @@ def _parse_count(value: Any, place: str) -> int:
 
 
 def _parse_utility(value: Any, place: str) -> float:
-    number = not isinstance(value, bool) and isinstance(value, int | float)
+    number = is_real(value)
     converted = math.nan
     if number:
         try:

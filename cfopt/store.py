@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from cfopt._jsonio import check_folder
+from cfopt.checks import is_whole
 from cfopt.errors import MissionError, describe
 
 __all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "store_lock"]
@@ -227,7 +228,7 @@ def _communication_table(text: Any) -> tuple[tuple[str, str, int, int], ...] | N
             isinstance(row, list)
             and len(row) == 4
             and all(isinstance(v, str) for v in row[:2])
-            and all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in row[2:])
+            and all(is_whole(v) and v >= 0 for v in row[2:])
         ):
             return None
         table.append((row[0], row[1], row[2], row[3]))

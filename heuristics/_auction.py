@@ -68,6 +68,7 @@ import numpy.typing as npt
 from scipy.optimize import linear_sum_assignment
 
 from cfopt import MissionError
+from cfopt.checks import require_number
 
 __all__ = ["ENTRY_BYTES", "HEADER_BYTES", "Bundle", "BundleFinder", "check_eps"]
 
@@ -82,18 +83,13 @@ _KEY_SAFE = 2**61
 def check_eps(eps: Any, name: str = "eps") -> Fraction:
     """``eps`` as an exact :class:`fractions.Fraction` (a float is taken at its exact binary
     value); it must be a finite real number > 0."""
-    if isinstance(eps, bool) or not isinstance(eps, numbers.Real):
-        raise MissionError(f"{name}: must be a finite number > 0, got {eps!r}")
+    require_number(name, eps, above=0, finite=False, what="a finite number")
     if isinstance(eps, numbers.Rational):
-        value = Fraction(int(eps.numerator), int(eps.denominator))
-    else:
-        f = float(eps)
-        if not math.isfinite(f):
-            raise MissionError(f"{name}: must be a finite number > 0, got {eps!r}")
-        value = Fraction(f)
-    if value <= 0:
+        return Fraction(int(eps.numerator), int(eps.denominator))
+    f = float(eps)
+    if not math.isfinite(f):
         raise MissionError(f"{name}: must be a finite number > 0, got {eps!r}")
-    return value
+    return Fraction(f)
 
 
 def check_order(order: Any) -> str:

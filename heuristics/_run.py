@@ -6,7 +6,6 @@ encoding) are in :mod:`heuristics.communication`.
 
 from __future__ import annotations
 
-import numbers
 import time
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -15,6 +14,17 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError
+from cfopt.checks import (
+    is_whole,
+    require_assignment,
+    require_bool,
+    require_int,
+    require_number,
+    require_seed,
+    require_text,
+    shown,
+)
+from cfopt.errors import MissionTypeError
 from heuristics.communication import (
     HEADER_BYTES,
     ROBOT_ENTRY_BYTES,
@@ -45,7 +55,7 @@ def belief_bytes(n_robots: int) -> int:
     >>> belief_bytes(100)
     416
     """
-    return HEADER_BYTES + ROBOT_ENTRY_BYTES * n_robots
+    return HEADER_BYTES + ROBOT_ENTRY_BYTES * require_int("n_robots", n_robots, minimum=0)
 
 
 def broadcast_cost(n_robots: int, rounds: int) -> tuple[int, int]:
@@ -61,7 +71,9 @@ def broadcast_cost(n_robots: int, rounds: int) -> tuple[int, int]:
     >>> broadcast_cost(100, 101)
     (999900, 415958400)
     """
-    return CommModel("unicast", "full").rounds_cost(n_robots, rounds, belief_bytes(n_robots))
+    size = belief_bytes(n_robots)
+    rounds = require_int("rounds", rounds, minimum=0)
+    return CommModel("unicast", "full").rounds_cost(int(n_robots), rounds, size)
 
 
 def check_order(order: str) -> str:
@@ -73,9 +85,35 @@ def check_order(order: str) -> str:
 
 def seed_label(seed: Any) -> int | None:
     """The seed as recorded in a :class:`Run`: an int, or ``None`` (fresh or a Generator)."""
-    if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):
+    if is_whole(seed):
         return int(seed)
     return None
+
+
+def _trajectory(value: Any) -> npt.NDArray[np.int64]:
+    """The trajectory as a read-only ``(k, 4)`` int64 copy."""
+    try:
+        traj = np.array(value, dtype=np.int64, copy=True).reshape(-1, 4)
+    except (TypeError, ValueError, OverflowError):
+        raise MissionError(
+            f"trajectory: must be rows of 4 whole numbers (iteration, robot, task, service), "
+            f"got {shown(value)}"
+        ) from None
+    traj.setflags(write=False)
+    return traj
+
+
+def _rows(name: str, value: Any, width: int) -> tuple[tuple[Any, ...], ...]:
+    """``value`` (a tuple or list of rows of ``width`` items, each led by a name) as a
+    tuple of tuples."""
+    if not isinstance(value, tuple | list) or not all(
+        isinstance(row, tuple | list) and len(row) == width and isinstance(row[0], str)
+        for row in value
+    ):
+        raise MissionTypeError(
+            f"{name}: must be a tuple of {width}-tuples led by a name, got {shown(value)}"
+        )
+    return tuple(map(tuple, value))
 
 
 def _empty_trajectory() -> npt.NDArray[np.int64]:
@@ -156,10 +194,16 @@ class Run:
     communication: Table = ()
 
     def __post_init__(self) -> None:
-        traj = np.array(self.trajectory, dtype=np.int64, copy=True).reshape(-1, 4)
-        traj.setflags(write=False)
-        object.__setattr__(self, "trajectory", traj)
-        object.__setattr__(self, "communication", tuple(map(tuple, self.communication)))
+        require_text("algorithm", self.algorithm)
+        require_assignment(self.assignment)
+        for name in ("iterations", "rounds", "messages", "bytes", "work", "exchanges"):
+            require_int(name, getattr(self, name), minimum=0)
+        require_number("seconds", self.seconds, minimum=0, what="a number of seconds")
+        require_seed("seed", self.seed, generator=False)
+        require_bool("pairwise_step_ran", self.pairwise_step_ran)
+        object.__setattr__(self, "trajectory", _trajectory(self.trajectory))
+        object.__setattr__(self, "options", _rows("options", self.options, 2))
+        object.__setattr__(self, "communication", _rows("communication", self.communication, 4))
 
     def communication_cost(
         self, medium: str = "broadcast", encoding: str = "full"

@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
+from cfopt.checks import SeedLike, require_bool, require_seed
 from heuristics._grape_s_fast import BAND as _BAND
 from heuristics._grape_s_fast import EXACT_FLOAT_LIMIT as _EXACT_FLOAT_LIMIT
 from heuristics._grape_s_fast import Outcome as _Outcome
@@ -23,8 +24,6 @@ from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.reward import VOID, RewardModel, reward_model
 
 __all__ = ["grape_s"]
-
-SeedLike = int | np.random.Generator | None
 
 
 def grape_s(
@@ -136,11 +135,12 @@ def grape_s(
     """
     started = time.perf_counter()
     require_mission(mission)
+    rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
-    comm = comm_model(medium, encoding)
+    capped = require_bool("capped", capped)
     model = reward_model(mission, reward)
-    rng = np.random.default_rng(seed)
-    out = _core(mission.capabilities, mission.requirements, model, order, bool(capped), rng)
+    comm = comm_model(medium, encoding)
+    out = _core(mission.capabilities, mission.requirements, model, order, capped, rng)
     n_slots = mission.n_tasks * mission.n_services
     table = belief_rounds_table(mission.n_robots, n_slots, out.rounds)
     messages, nbytes = table_cost(table, comm)
@@ -156,7 +156,7 @@ def grape_s(
         messages=messages,
         bytes=nbytes,
         work=out.work,
-        options=(("order", order), ("capped", bool(capped)), ("reward", reward), *comm.options),
+        options=(("order", order), ("capped", capped), ("reward", reward), *comm.options),
         communication=table,
     )
 

@@ -140,13 +140,13 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, require_mission
+from cfopt.checks import SeedLike, require_bool, require_seed
 from heuristics._grape_s_fast import Outcome as _Outcome
 from heuristics._run import Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 
 __all__ = ["fillable", "grape_s_select", "select_priorities"]
 
-SeedLike = int | np.random.Generator | None
 #: Exact matching checks enumerate the subsets of up to this many services; beyond, a
 #: max-flow (networkx).
 _HALL_BITS = 14
@@ -243,10 +243,11 @@ def grape_s_select(
     """
     started = time.perf_counter()
     require_mission(mission)
+    rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
+    exchange = require_bool("exchange", exchange)
     comm = comm_model(medium, encoding)
-    rng = np.random.default_rng(seed)
-    out = _Engine(mission, order, bool(exchange), rng).run()
+    out = _Engine(mission, order, exchange, rng).run()
     n, m = mission.n_robots, mission.n_tasks
     table = belief_rounds_table(n, m * mission.n_services, out.rounds, extra_bits=2 * m)
     messages, nbytes = table_cost(table, comm)
@@ -262,7 +263,7 @@ def grape_s_select(
         messages=messages,
         bytes=nbytes,
         work=out.work,
-        options=(("order", order), ("exchange", bool(exchange)), *comm.options),
+        options=(("order", order), ("exchange", exchange), *comm.options),
         communication=table,
     )
 

@@ -100,11 +100,13 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError, require_mission
+from cfopt.checks import require_choice, require_int, require_seed
 from heuristics._run import Run, seed_label
 from heuristics.agents.belief import Belief, Problem, decode_belief
 from heuristics.agents.grape_s import decode_message
 from heuristics.mpi_job import job_folder, run_job
 from heuristics.network import Clocks, Links, NetworkSpec
+from heuristics.reward import REWARDS
 from heuristics.simulate import (
     DEFAULT_TIME_LIMIT,
     QUIET_FACTOR,
@@ -114,7 +116,8 @@ from heuristics.simulate import (
     _packed,
     _protocol,
     _Ticking,
-    _time_limit,
+    network_spec,
+    run_limits,
 )
 
 __all__ = ["INSTALL", "MPI_ALGORITHMS", "TransportReport", "mpi_run", "run_ranks"]
@@ -185,8 +188,7 @@ def check_backend(algorithm: str, n_robots: int, ranks: Any) -> int:
         raise MissionError(
             f"algorithm: {algorithm!r} has no MPI agents (available: {', '.join(MPI_ALGORITHMS)})"
         )
-    if isinstance(ranks, bool) or not isinstance(ranks, int | np.integer) or ranks < 1:
-        raise MissionError(f"ranks: must be a whole number >= 1, got {ranks!r}")
+    ranks = require_int("ranks", ranks, minimum=1)
     if ranks > max(n_robots, 1):
         raise MissionError(
             f"ranks: at most one rank per robot ({n_robots} robots), got {int(ranks)}"
@@ -295,11 +297,11 @@ def mpi_run(
     """
     started = time.perf_counter()
     require_mission(mission)
-    spec = network if isinstance(network, NetworkSpec) else NetworkSpec.parse(network)
+    spec = network_spec(network)
     ranks = check_backend(algorithm, mission.n_robots, ranks)
-    limit = _time_limit(time_limit)
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-        raise MissionError(f"seed: must be a whole number >= 0 or None, got {seed!r}")
+    limit, quiet_factor = run_limits(time_limit, quiet_factor)
+    seed = require_seed("seed", seed, generator=False)
+    require_choice("reward", reward, REWARDS)
     command = launcher()
     fresh = None if seed is not None else int(np.random.SeedSequence().entropy)
     world = seed if fresh is None else np.random.default_rng(fresh)  # what rank 0 gets
@@ -355,9 +357,9 @@ def run_ranks(
     started = time.perf_counter()
     comm = MPI.COMM_WORLD if comm is None else comm
     require_mission(mission)
-    spec = network if isinstance(network, NetworkSpec) else NetworkSpec.parse(network)
+    spec = network_spec(network)
     check_backend(algorithm, mission.n_robots, comm.Get_size())
-    limit = _time_limit(time_limit)
+    limit, quiet_factor = run_limits(time_limit, quiet_factor)
     entropy = comm.bcast(
         np.random.SeedSequence(_entropy(seed)).entropy if comm.Get_rank() == 0 else None
     )

@@ -58,6 +58,7 @@ from cfopt._jsonio import (
     read_json,
     read_text_file,
 )
+from cfopt.checks import is_whole
 from cfopt.errors import MissionError, describe, plural
 from cfopt.mission import Mission
 
@@ -209,7 +210,7 @@ def _in_range(value: Any, what: str, low: float, high: float, closed: str = "[]"
 
 
 def _duration_problem(value: Any, what: str) -> str | None:
-    if not isinstance(value, int | np.integer) or isinstance(value, bool | np.bool_):
+    if not is_whole(value):
         return f"{what} must be a whole number of nanoseconds, got {describe(value)}"
     if value < 0:
         return f"{what} must be >= 0, got {value} ns"
@@ -524,7 +525,7 @@ def _param_problem(topology: str, key: str, value: Any) -> str | None:
         if topology == "er":
             return _in_range(value, "the er edge probability p", 0, 1, "(]")
         return _in_range(value, "the smallworld rewiring probability p", 0, 1)
-    if not isinstance(value, int | np.integer) or isinstance(value, bool | np.bool_):
+    if not is_whole(value):
         return f"k must be a whole number, got {describe(value)}"
     if value < 2 or value % 2:
         return (
@@ -1149,7 +1150,7 @@ def _json_token(key: str, raw: Any) -> str:
         return "true" if raw else "false"
     if key in ("radius", "p", "jitter", "loss") and _is_real(raw):
         return _number_text(raw) if math.isfinite(raw) else describe(raw)
-    if key == "k" and isinstance(raw, int) and not isinstance(raw, bool) and raw >= 0:
+    if key == "k" and is_whole(raw) and raw >= 0:
         return str(raw)
     if key == "k" and isinstance(raw, float) and raw.is_integer() and raw >= 0:
         return str(int(raw))

@@ -19,9 +19,10 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import shortest_path
 
 from cfopt import Mission, require_mission
+from cfopt.checks import SeedLike, require_seed
 from heuristics._run import Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
-from heuristics.grape_s import SeedLike, _core
+from heuristics.grape_s import _core
 from heuristics.reward import RewardModel, reward_model
 
 __all__ = ["ACCEPT_BYTES", "pair_grape_s_chain", "request_bytes"]
@@ -230,10 +231,10 @@ def pair_grape_s_chain(
     """
     started = time.perf_counter()
     require_mission(mission)
+    rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
-    comm = comm_model(medium, encoding)
     model = reward_model(mission, reward)
-    rng = np.random.default_rng(seed)
+    comm = comm_model(medium, encoding)
     caps, reqs = mission.capabilities, mission.requirements
     first = _core(caps, reqs, model, order, True, rng)
     second = _chain_step(caps, reqs, model, order, rng, first.task, first.service, first.iterations)

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import heapq
 import math
-import numbers
 import time
 from array import array
 from collections.abc import Callable, Iterator
@@ -50,6 +49,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_flow
 
 from cfopt import Assignment, Mission, MissionError, require_mission
+from cfopt.checks import SeedLike, require_int, require_seed
 from heuristics._auction import (
     ENTRY_BYTES,
     HEADER_BYTES,
@@ -63,7 +63,6 @@ from heuristics.communication import comm_model, media_table, table_cost
 
 __all__ = ["MAX_ROUNDS", "SCHEDULES", "rachna_dt"]
 
-SeedLike = int | np.random.Generator | None
 #: Bidding schedules of :func:`rachna_dt`: the faithful reading first (the default).
 SCHEDULES = ("simultaneous", "sequential")
 #: Default ``max_rounds`` of :func:`rachna_dt` (the seed's missions need at most a few
@@ -286,15 +285,10 @@ def rachna_dt(
     check_order(order)
     if schedule not in SCHEDULES:
         raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
-    if (
-        isinstance(max_rounds, bool)
-        or not isinstance(max_rounds, numbers.Integral)
-        or max_rounds < 1
-    ):
-        raise MissionError(f"max_rounds: must be a whole number >= 1, got {max_rounds!r}")
+    max_rounds = require_int("max_rounds", max_rounds, minimum=1)
     comm = comm_model(medium, encoding)
-    np.random.default_rng(seed)  # validates the seed; RACHNA_dt draws nothing
-    out = _core(mission, eps_q, int(max_rounds), schedule=schedule)
+    require_seed("seed", seed)  # RACHNA_dt draws nothing
+    out = _core(mission, eps_q, max_rounds, schedule=schedule)
     table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)
     return Run(

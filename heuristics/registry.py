@@ -12,6 +12,8 @@ from types import MappingProxyType
 from typing import Any
 
 from cfopt import Mission, MissionError
+from cfopt.checks import shown
+from cfopt.errors import MissionTypeError
 from heuristics._run import Run
 from heuristics.grape_s import grape_s
 from heuristics.grape_s_select import grape_s_select
@@ -57,6 +59,8 @@ def get_algorithm(name: str) -> Algorithm:
     ...
     cfopt.errors.MissionError: unknown algorithm 'grape' (known: grape-s, grape-s-select, ...)
     """
+    if not isinstance(name, str):
+        raise MissionTypeError(f"algorithm: must be a name (a string), got {shown(name)}")
     try:
         return ALGORITHMS[name]
     except KeyError:

@@ -12,6 +12,7 @@ from fractions import Fraction
 import numpy as np
 
 from cfopt import Assignment, Mission, MissionError, require_mission
+from cfopt.checks import SeedLike, require_seed
 from heuristics._auction import check_eps, check_order
 from heuristics._run import Run, seed_label
 from heuristics._sda_fast import DescendingAuction
@@ -22,7 +23,6 @@ from heuristics.communication import comm_model, media_table, table_cost
 
 __all__ = ["SCHEDULES", "sda"]
 
-SeedLike = int | np.random.Generator | None
 #: The wage decrement schedules.
 SCHEDULES = ("max-wage", "uniform")
 
@@ -167,7 +167,7 @@ def sda(
         raise MissionError(f"schedule: must be one of {', '.join(SCHEDULES)}, got {schedule!r}")
     check_order(order)
     comm = comm_model(medium, encoding)
-    np.random.default_rng(seed)  # validates the seed; SDA draws nothing
+    require_seed("seed", seed)  # SDA draws nothing
     out = _core(mission, eps_q, schedule)
     table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)

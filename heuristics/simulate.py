@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import math
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping
@@ -58,6 +57,8 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError, require_mission
+from cfopt.checks import require_int, require_number, require_seed, require_text, shown
+from cfopt.errors import MissionTypeError
 from heuristics._run import Run, seed_label
 from heuristics.agents.belief import Belief, Problem, encode_belief
 from heuristics.agents.grape_s import (
@@ -75,7 +76,14 @@ from heuristics.agents.grape_s_select import (
 )
 from heuristics.network import Clocks, Links, Network, NetworkSpec
 
-__all__ = ["DEFAULT_TIME_LIMIT", "QUIET_FACTOR", "NetworkReport", "simulate"]
+__all__ = [
+    "DEFAULT_TIME_LIMIT",
+    "QUIET_FACTOR",
+    "NetworkReport",
+    "network_spec",
+    "run_limits",
+    "simulate",
+]
 
 #: Simulated seconds after which a run that has not ended is cut (the seed's one hour).
 DEFAULT_TIME_LIMIT = 3600.0
@@ -237,29 +245,44 @@ def simulate(
     started = time.perf_counter()
     require_mission(mission)
     _protocol(algorithm, options)  # an unknown algorithm is refused before anything is built
-    spec = network if isinstance(network, NetworkSpec) else NetworkSpec.parse(network)
-    limit = _time_limit(time_limit)
-    if isinstance(quiet_factor, bool) or not isinstance(quiet_factor, int) or quiet_factor < 1:
-        raise MissionError(f"quiet_factor: must be a whole number >= 1, got {quiet_factor!r}")
+    spec = network_spec(network)
+    require_seed("seed", seed)
+    limit, quiet_factor = run_limits(time_limit, quiet_factor)
+    if faults is not None and not callable(faults):
+        raise MissionTypeError(f"faults: must be callable or None, got {shown(faults)}")
     sim = _Simulation(mission, algorithm, spec, seed, limit, quiet_factor, reward, faults, options)
     sim.run()
     return sim.result(time.perf_counter() - started, seed_label(seed))
 
 
-def _time_limit(value: Any) -> int:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | float)
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise MissionError(f"time_limit: must be a number of seconds > 0, got {value!r}")
-    nanoseconds = round(value * 1e9)
-    if nanoseconds > _MAX_TIME_NS:
-        raise MissionError(
-            f"time_limit: at most {_MAX_TIME_NS / 1e9:.0f} simulated seconds, got {value!r}"
+def network_spec(network: Any) -> NetworkSpec:
+    """``network`` as a :class:`~heuristics.network.NetworkSpec`: a spec as it is, text (a
+    one-line spec or a network file's path) parsed.  Errors name ``network``; their
+    command-line wording is the parser's (``--network: token ...``)."""
+    if isinstance(network, NetworkSpec):
+        return network
+    if not isinstance(network, str):
+        raise MissionTypeError(
+            f"network: must be a network spec (text or a NetworkSpec), got {shown(network)}"
         )
-    return nanoseconds
+    try:
+        return NetworkSpec.parse(network)
+    except MissionError as exc:
+        raise MissionError(f"network: {exc}", cli=exc.cli_message) from None
+
+
+def run_limits(time_limit: Any, quiet_factor: Any) -> tuple[int, int]:
+    """The checked ``time_limit`` (in nanoseconds) and ``quiet_factor`` of a distributed run.
+
+    >>> run_limits(1.5, 2)
+    (1500000000, 2)
+    """
+    scaled = 1e9 * require_number("time_limit", time_limit, above=0, what="a number of seconds")
+    if scaled > _MAX_TIME_NS + 1 or round(scaled) > _MAX_TIME_NS:  # no round() of inf
+        raise MissionError(
+            f"time_limit: at most {_MAX_TIME_NS / 1e9:.0f} simulated seconds, got {time_limit!r}"
+        )
+    return round(scaled), require_int("quiet_factor", quiet_factor, minimum=1)
 
 
 def _packed(key: tuple[int, int, int]) -> tuple[int, int]:
@@ -530,6 +553,11 @@ class GrapeSSelectProtocol(GrapeSProtocol):
 
 
 def _protocol(algorithm: str, options: Mapping[str, Any] | None = None) -> Protocol:
+    require_text("algorithm", algorithm)
+    if options is not None and not isinstance(options, Mapping):
+        raise MissionTypeError(
+            f"options: must be a mapping of the agents' options or None, got {shown(options)}"
+        )
     options = dict(options or {})
     if algorithm == "grape-s-select":
         unknown = [k for k in options if k != "exchange"]

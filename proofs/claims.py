@@ -61,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 from cfopt import Assignment, GridCell, Mission, MissionError, generate_mission, paper_grid
+from cfopt.checks import require_int
 from proofs.scaling import (
     Fit,
     fit_rungs,
@@ -247,10 +248,8 @@ class Claim:
         -------
         Verdict
         """
-        if isinstance(n_missions, bool) or not isinstance(n_missions, int) or n_missions < 1:
-            raise ValueError(f"n_missions: must be a whole number >= 1, got {n_missions!r}")
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise ValueError(f"seed: must be a whole number >= 0, got {seed!r}")
+        n_missions = require_int("n_missions", n_missions, minimum=1)
+        seed = require_int("seed", seed, minimum=0)
         started = time.perf_counter()
         kind, count, example, note = self._method.check(self, n_missions, seed)
         return Verdict(

@@ -35,6 +35,7 @@ from typing import Any
 import pytest
 
 from cfopt import Assignment, Mission, MissionError
+from cfopt.checks import require_int
 from proofs.stability import MODES, nash_violations, pairwise_violations
 
 __all__ = ["AuditFailure", "Auditor", "cfopt_audit"]
@@ -100,10 +101,8 @@ class Auditor:
             raise TypeError(f"heuristic: must be callable, got {type(heuristic).__name__}")
         if mode not in MODES:
             raise ValueError(f"mode: must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
-        if max_examples is not None and (
-            isinstance(max_examples, bool) or not isinstance(max_examples, int) or max_examples < 1
-        ):
-            raise ValueError(f"max_examples: must be a whole number >= 1, got {max_examples!r}")
+        if max_examples is not None:
+            require_int("max_examples", max_examples, minimum=1)
         import hypothesis
         from hypothesis import HealthCheck, Phase, given, settings
 

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from cfopt import Mission, MissionError, generate_mission
+from cfopt.checks import is_whole
 
 __all__ = [
     "MEASURES",
@@ -136,7 +137,7 @@ def _rung(
 
 def _check_seeds(seeds: Iterable[int]) -> list[int]:
     out = list(seeds)
-    if not out or any(isinstance(s, bool) or not isinstance(s, int | np.integer) for s in out):
+    if not out or not all(is_whole(s) for s in out):
         raise MissionError(f"seeds: must be a non-empty list of whole numbers, got {out!r}")
     return [int(s) for s in out]
 

@@ -80,6 +80,15 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError
+from cfopt.checks import (
+    is_whole,
+    require_assignment,
+    require_bool,
+    require_int,
+    require_mission,
+    shown,
+)
+from cfopt.errors import MissionTypeError
 
 __all__ = [
     "MODES",
@@ -123,12 +132,18 @@ class Move:
     source: Slot | None
     target: Slot | None
 
+    def __post_init__(self) -> None:
+        require_int("robot", self.robot, minimum=0)
+        _check_slot("source", self.source)
+        _check_slot("target", self.target)
+
     def apply(self, assignment: Assignment) -> Assignment:
         """A new assignment with this move made (the robot must be at ``source``)."""
         return _apply((self,), assignment)
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
         """``{"robot", "from", "to"}`` with ids and names (what ``cfopt check --json`` lists)."""
+        require_mission(mission)
         return {
             "robot": mission.robot_ids[self.robot],
             "from": _slot_dict(mission, self.source),
@@ -137,6 +152,7 @@ class Move:
 
     def describe(self, mission: Mission) -> str:
         """``r3: t0/lift -> t2/survey`` (``-`` for unassigned)."""
+        require_mission(mission)
         return (
             f"{mission.robot_ids[self.robot]}: {_slot_text(mission, self.source)} -> "
             f"{_slot_text(mission, self.target)}"
@@ -158,6 +174,20 @@ class PairwiseViolation:
     robots: tuple[int, ...]
     moves: tuple[Move, ...]
 
+    def __post_init__(self) -> None:
+        robots, moves = self.robots, self.moves
+        if not isinstance(robots, tuple) or not all(is_whole(i) and i >= 0 for i in robots):
+            raise MissionTypeError(
+                f"robots: must be a tuple of robot indices >= 0, got {shown(robots)}"
+            )
+        if not isinstance(moves, tuple) or not all(isinstance(mv, Move) for mv in moves):
+            raise MissionTypeError(f"moves: must be a tuple of proofs.Move, got {shown(moves)}")
+        if len(moves) != len(robots) or not 1 <= len(robots) <= 2:
+            raise MissionError(
+                f"moves: one move per robot of robots (one or two), got {len(moves)} moves "
+                f"for {len(robots)} robots"
+            )
+
     @property
     def kind(self) -> str:
         """``"individual"`` (a Nash violation) or ``"joint"``."""
@@ -169,6 +199,7 @@ class PairwiseViolation:
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
         """``{"robots": [...], "moves": [...], "kind": ...}``, as ``cfopt check --json`` lists."""
+        require_mission(mission)
         return {
             "robots": [mission.robot_ids[i] for i in self.robots],
             "moves": [mv.to_dict(mission) for mv in self.moves],
@@ -177,7 +208,17 @@ class PairwiseViolation:
 
     def describe(self, mission: Mission) -> str:
         """The moves, joined by ``" & "``."""
+        require_mission(mission)
         return " & ".join(mv.describe(mission) for mv in self.moves)
+
+
+def _check_slot(name: str, slot: Any) -> None:
+    if slot is not None and not (
+        isinstance(slot, tuple) and len(slot) == 2 and all(is_whole(k) and k >= 0 for k in slot)
+    ):
+        raise MissionTypeError(
+            f"{name}: must be a (task, service) pair of indices >= 0 or None, got {shown(slot)}"
+        )
 
 
 def _slot_dict(mission: Mission, slot: Slot | None) -> dict[str, str] | None:
@@ -193,6 +234,7 @@ def _slot_text(mission: Mission, slot: Slot | None) -> str:
 
 
 def _apply(moves: tuple[Move, ...], assignment: Assignment) -> Assignment:
+    require_assignment(assignment)
     task, service = assignment.task.copy(), assignment.service.copy()
     for mv in moves:
         if not 0 <= mv.robot < task.size:
@@ -354,6 +396,7 @@ def _pairwise(
     joint: type[_Joint],
 ) -> list[PairwiseViolation]:
     _check_mode(mode)
+    individual = require_bool("individual", individual)
     state = _State(mission, assignment, capped)
     out: list[PairwiseViolation] = []
     if individual:
@@ -427,15 +470,11 @@ class _State:
     """Counts, loads and the per-service best slots of one (mission, assignment)."""
 
     def __init__(self, mission: Mission, assignment: Assignment, capped: bool) -> None:
-        if not isinstance(mission, Mission):
-            raise TypeError(f"mission: expected a cfopt.Mission, got {type(mission).__name__}")
-        if not isinstance(assignment, Assignment):
-            raise TypeError(
-                f"assignment: expected a cfopt.Assignment, got {type(assignment).__name__}"
-            )
+        require_mission(mission)
+        require_assignment(assignment)
+        self.capped = require_bool("capped", capped)
         counts = assignment.counts(mission)  # validates
         self.mission = mission
-        self.capped = bool(capped)
         m, S = mission.n_tasks, mission.n_services
         self.S = S
         self.caps = mission.capabilities

@@ -22,6 +22,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from cfopt import Assignment, Mission
+from cfopt.checks import require_bool, require_int, require_mission, require_number
 from proofs._dynamics import best_response
 
 __all__ = ["achievable_missions", "assignments", "missions", "near_stable_assignments"]
@@ -32,9 +33,7 @@ _MAX_SERVICES = 20
 
 
 def _bounded(name: str, value: Any, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise ValueError(f"{name}: must be a whole number between {low} and {high}, got {value!r}")
-    return value
+    return require_int(name, value, minimum=low, maximum=high)
 
 
 def _range(name: str, low: Any, high: Any, floor: int, ceiling: int) -> tuple[int, int]:
@@ -48,11 +47,8 @@ def _range(name: str, low: Any, high: Any, floor: int, ceiling: int) -> tuple[in
 def _fraction(name: str, value: Any, *, low_open: bool, high: float) -> float | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ValueError(f"{name}: must be a finite number or None, got {value!r}")
-    if value < 0 or (low_open and value == 0) or value > high:
-        raise ValueError(f"{name}: must be in {'(' if low_open else '['}0, {high}], got {value!r}")
-    return float(value)
+    low = {"above": 0} if low_open else {"minimum": 0}
+    return require_number(name, value, **low, maximum=high, or_none=True)
 
 
 def missions(
@@ -111,8 +107,8 @@ def missions(
     max_requirement = _bounded("max_requirement", max_requirement, 1, 50)
     max_utility = _bounded("max_utility", max_utility, 1, 10**6)
     density = _fraction("density", density, low_open=True, high=1.0)
-    if achievable is not None and not isinstance(achievable, bool):
-        raise ValueError(f"achievable: must be True, False or None, got {achievable!r}")
+    if achievable is not None:
+        require_bool("achievable", achievable)
     if load is not None:
         if achievable is None:
             raise ValueError("load: only meaningful with achievable=True or achievable=False")
@@ -243,12 +239,6 @@ def _options(mission: Mission, i: int) -> list[tuple[int, int]]:
     ]
 
 
-def _check_mission(mission: Any) -> Mission:
-    if not isinstance(mission, Mission):
-        raise TypeError(f"mission: expected a cfopt.Mission, got {type(mission).__name__}")
-    return mission
-
-
 def assignments(mission: Mission, *, unassigned: bool = True) -> st.SearchStrategy[Assignment]:
     """Valid assignments for ``mission``: each robot on any slot it can perform.
 
@@ -274,10 +264,8 @@ def assignments(mission: Mission, *, unassigned: bool = True) -> st.SearchStrate
     ...     a.validate(m)
     >>> test()
     """
-    mission = _check_mission(mission)
-    if not isinstance(unassigned, bool):
-        raise ValueError(f"unassigned: must be a bool, got {unassigned!r}")
-    return _assignments(mission, unassigned)
+    mission = require_mission(mission)
+    return _assignments(mission, require_bool("unassigned", unassigned))
 
 
 @st.composite
@@ -324,10 +312,8 @@ def near_stable_assignments(
     ...     assert proofs.is_nash_stable(m, a)
     >>> test()
     """
-    mission = _check_mission(mission)
-    for name, value in (("capped", capped), ("perturb", perturb)):
-        if not isinstance(value, bool):
-            raise ValueError(f"{name}: must be a bool, got {value!r}")
+    mission = require_mission(mission)
+    capped, perturb = require_bool("capped", capped), require_bool("perturb", perturb)
     return _near_stable(mission, capped, perturb)
 
 

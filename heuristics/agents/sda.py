@@ -220,6 +220,7 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, MissionError
+from cfopt.checks import require_int
 from heuristics._auction import BundleFinder, check_eps
 from heuristics.simulate import Outcome, Protocol
 
@@ -1247,10 +1248,7 @@ class SdaProtocol(Protocol):
 
     def __init__(self, eps: float | Fraction = 1, resend_tries: int = 0) -> None:
         self.eps = check_eps(eps)
-        self.resend_tries = resend_tries
-        tries = self.resend_tries
-        if isinstance(tries, bool) or not isinstance(tries, int) or tries < 0:
-            raise MissionError(f"resend_tries: must be a whole number >= 0, got {tries!r}")
+        self.resend_tries = require_int("resend_tries", resend_tries, minimum=0)
 
     def make_agents(self, sim: Any) -> list[Any]:
         return self.agents(sim.mission, sim.clocks.period_ns, sim.network.diameter)
