@@ -15,14 +15,17 @@ Left out: enums (``ExactStatus``, standard library behaviour) and exception clas
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import dataclasses
+import enum
 import inspect
 import io
 import math
 import numbers
 import os
 import re
+import shutil
 import tempfile
 import types
 import typing
@@ -41,7 +44,7 @@ import cfopt
 import heuristics
 import proofs
 import proofs.strategies
-from cfopt import Assignment, GridCell, Mission
+from cfopt import Assignment, GridCell, Mission, checks
 
 # ------------------------------------------------------------------ real arguments
 MISSION = Mission.from_arrays([[1, 0], [1, 1], [0, 1]], [[1, 1], [0, 1]], [5.0, 3.0])
@@ -61,7 +64,9 @@ INSTANCES: dict[type, Any] = {
     proofs.NashViolation: proofs.NashViolation(robot=0, source=(0, 0), target=None),
     proofs.PairwiseViolation: proofs.PairwiseViolation(robots=(0,), moves=(MOVE,)),
 }
+#: Where the files the calls read and write are (the calls run in it); removed at exit.
 FOLDER = Path(tempfile.mkdtemp(prefix="cfopt-api-types-"))
+atexit.register(shutil.rmtree, FOLDER, True)
 MISSION_FILE = FOLDER / "mission.json"
 MISSION_FILE.write_text(MISSION.to_json(), encoding="utf-8")
 ASSIGNMENT_FILE = FOLDER / "assignment.json"
@@ -134,7 +139,7 @@ def _hints(function: Callable[..., Any]) -> dict[str, Any]:
     return typing.get_type_hints(function, localns=namespace)
 
 
-def _valid(target_id: str, function: Callable[..., Any], owner: type | None) -> dict[str, Any]:
+def _valid(target_id: str, function: Callable[..., Any]) -> dict[str, Any]:
     valid: dict[str, Any] = {}
     fields = inspect.isclass(function) and dataclasses.is_dataclass(function)
     for p in inspect.signature(function).parameters.values():
@@ -168,7 +173,7 @@ def _public(module: types.ModuleType) -> Iterator[tuple[str, Callable[..., Any]]
         obj = getattr(module, name)
         if inspect.ismodule(obj) or not callable(obj):
             continue
-        if inspect.isclass(obj) and issubclass(obj, BaseException | __import__("enum").Enum):
+        if inspect.isclass(obj) and issubclass(obj, BaseException | enum.Enum):
             continue
         yield name, obj
         if inspect.isclass(obj):
@@ -181,8 +186,7 @@ def targets() -> list[Target]:
     for module in (cfopt, heuristics, proofs, proofs.strategies):
         for name, function in _public(module):
             hints = _hints(function.__init__ if inspect.isclass(function) else function)
-            owner = function if inspect.isclass(function) else None
-            out.append(Target(name, function, hints, _valid(name, function, owner)))
+            out.append(Target(name, function, hints, _valid(name, function)))
     return out
 
 
@@ -221,7 +225,7 @@ def _fits_class(value: Any, kind: Any) -> bool:
         return isinstance(value, tuple | list)
     if kind is typing.IO:
         return hasattr(value, "read")
-    if kind is Callable or kind is __import__("collections.abc").abc.Callable:
+    if kind is Callable:
         return callable(value)
     return isinstance(value, kind)
 
@@ -246,6 +250,7 @@ WRONG = st.one_of(
 
 
 def names(message: str, word: str) -> bool:
+    """Whether ``message`` names ``word`` (as a word: ``tasks[0].utility`` names ``utility``)."""
     return re.search(rf"(?<![\w]){re.escape(word)}\b", message) is not None
 
 
@@ -308,3 +313,263 @@ def test_valid_arguments_are_accepted(target: Target) -> None:
             target.call(**target.valid)
         except cfopt.MissionError as exc:
             assert _accepted(target, exc), exc
+
+
+# ------------------------------------------------------------ the campaign's findings
+def _cell_missions_none() -> Any:
+    return CELL.missions(count=None)  # refused by the call, before any mission is drawn
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "match"),
+    [
+        pytest.param(lambda: Assignment.empty([]), TypeError, "mission: ", id="empty-list"),
+        pytest.param(lambda: Assignment.empty(-1), ValueError, "mission: ", id="empty-negative"),
+        pytest.param(
+            lambda: Assignment.from_dict([], ASSIGNMENT.to_dict(MISSION)),
+            TypeError,
+            r"mission: must be a cfopt\.Mission, got list",
+            id="from_dict",
+        ),
+        pytest.param(lambda: ASSIGNMENT.validate([]), TypeError, "mission: ", id="validate"),
+        pytest.param(lambda: ASSIGNMENT.utility([]), TypeError, "mission: ", id="utility"),
+        pytest.param(
+            lambda: ASSIGNMENT.completed_tasks([]), TypeError, "mission: ", id="completed_tasks"
+        ),
+        pytest.param(
+            lambda: ASSIGNMENT.percent_utility([]), TypeError, "mission: ", id="percent_utility"
+        ),
+        pytest.param(lambda: ASSIGNMENT.to_dict([]), TypeError, "mission: ", id="to_dict"),
+        pytest.param(
+            lambda: Mission.from_json(None), TypeError, "source: must be a file path", id="json"
+        ),
+        pytest.param(
+            lambda: heuristics.broadcast_cost(10, "abc"), TypeError, "rounds: ", id="cost-str"
+        ),
+        pytest.param(lambda: heuristics.belief_bytes(-1), ValueError, "n_robots: ", id="bytes-neg"),
+        pytest.param(
+            lambda: heuristics.belief_bytes(math.nan), TypeError, "n_robots: ", id="bytes-nan"
+        ),
+        pytest.param(lambda: CELL.mission(index=[]), TypeError, "index: ", id="cell-index"),
+        pytest.param(_cell_missions_none, TypeError, "count: ", id="cell-missions-eager"),
+        pytest.param(
+            lambda: heuristics.grape_s(MISSION, capped=[]),
+            TypeError,
+            r"capped: must be a bool \(True or False\), got \[\]",
+            id="capped",
+        ),
+        pytest.param(
+            lambda: heuristics.grape_s_select(MISSION, exchange="no"),
+            TypeError,
+            "exchange: ",
+            id="exchange",
+        ),
+        pytest.param(lambda: MISSION.to_json(overwrite=1), TypeError, "overwrite: ", id="ow"),
+        pytest.param(
+            lambda: ASSIGNMENT.to_json(MISSION, overwrite="yes"),
+            TypeError,
+            "overwrite: ",
+            id="ow-assignment",
+        ),
+        pytest.param(
+            lambda: proofs.nash_violations(MISSION, ASSIGNMENT, capped=1),
+            TypeError,
+            "capped: ",
+            id="checker-capped",
+        ),
+        pytest.param(
+            lambda: proofs.pairwise_violations(MISSION, ASSIGNMENT, individual=None),
+            TypeError,
+            "individual: ",
+            id="checker-individual",
+        ),
+        pytest.param(lambda: heuristics.grape_s(MISSION, seed=True), TypeError, "seed: ", id="t"),
+        pytest.param(lambda: heuristics.sda(MISSION, seed=[1, 2]), TypeError, "seed: ", id="l"),
+        pytest.param(
+            lambda: cfopt.generate_mission(6, 50, 2, 1, seed=True), TypeError, "seed: ", id="gen"
+        ),
+        pytest.param(
+            lambda: heuristics.rachna_dt(MISSION, seed=-1), ValueError, "seed: ", id="negative"
+        ),
+        pytest.param(
+            lambda: heuristics.mpi_run(MISSION, "grape-s", seed=np.random.default_rng(0)),
+            TypeError,
+            "seed: must be None or a whole number >= 0",
+            id="mpi-generator",
+        ),
+        pytest.param(
+            lambda: heuristics.mpi_run(MISSION, "grape-s", quiet_factor=0),
+            ValueError,
+            "quiet_factor: ",
+            id="mpi-quiet-factor",
+        ),
+        pytest.param(
+            lambda: heuristics.mpi_run(MISSION, "grape-s", reward="fair"),
+            ValueError,
+            "reward: ",
+            id="mpi-reward",
+        ),
+        pytest.param(
+            lambda: heuristics.simulate(MISSION, "grape-s", "complete", time_limit=1e300),
+            ValueError,
+            "time_limit: at most",
+            id="simulate-time-limit",
+        ),
+        pytest.param(
+            lambda: heuristics.simulate(MISSION, "grape-s", None),
+            TypeError,
+            "network: ",
+            id="simulate-network",
+        ),
+        pytest.param(
+            lambda: heuristics.simulate(MISSION, "grape-s", "ring loss=1.5"),
+            ValueError,
+            r"network: loss=1\.5: ",
+            id="simulate-spec",
+        ),
+        pytest.param(
+            lambda: heuristics.simulate(MISSION, "grape-s", "complete", faults=True),
+            TypeError,
+            "faults: ",
+            id="simulate-faults",
+        ),
+        pytest.param(
+            lambda: heuristics.simulate(MISSION, "sda", "complete", options="eps"),
+            TypeError,
+            "options: ",
+            id="simulate-options",
+        ),
+        pytest.param(
+            lambda: cfopt.solve_exact(MISSION, time_limit=1e300),
+            ValueError,
+            "time_limit: ",
+            id="solve-time-limit",
+        ),
+        pytest.param(lambda: heuristics.get_algorithm([]), TypeError, "algorithm: ", id="name"),
+        pytest.param(
+            lambda: Mission.from_arrays([[1]], [[1]], [1.0], services="s"),
+            TypeError,
+            "services: must be a sequence of strings",
+            id="services-text",
+        ),
+        pytest.param(lambda: MISSION.to_json(b"m.json"), TypeError, "path: ", id="path-bytes"),
+        pytest.param(lambda: Mission.from_json("m\0.json"), ValueError, "NUL", id="path-nul"),
+        pytest.param(
+            lambda: dataclasses.replace(RUN, algorithm=None), TypeError, "algorithm: ", id="run"
+        ),
+        pytest.param(
+            lambda: RUN.replace_seconds(math.nan), ValueError, "seconds: ", id="run-seconds"
+        ),
+        pytest.param(lambda: proofs.Move(-1, None, None), ValueError, "robot: ", id="move"),
+        pytest.param(lambda: proofs.Move(0, (0, "s"), None), TypeError, "source: ", id="move-slot"),
+        pytest.param(
+            lambda: proofs.PairwiseViolation(robots=(0, 1), moves=(MOVE,)),
+            ValueError,
+            "moves: one move per robot",
+            id="pairwise-violation",
+        ),
+        pytest.param(
+            lambda: dataclasses.replace(RESULT, status="optimal"), TypeError, "status: ", id="res"
+        ),
+        pytest.param(
+            lambda: proofs.strategies.assignments(MISSION, unassigned=1),
+            TypeError,
+            "unassigned: ",
+            id="strategy-flag",
+        ),
+    ],
+)
+def test_campaign_findings(call: Callable[[], Any], error: type, match: str) -> None:
+    with mock.patch.dict(os.environ, NO_LAUNCHER), pytest.raises(error, match=match) as caught:
+        call()
+    assert isinstance(caught.value, cfopt.MissionError)  # the command line's one handler
+
+
+# ------------------------------------------------------------------- the checks
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        pytest.param(
+            lambda: checks.require_int("k", 2.0), TypeError, "k: must be a whole number, got 2.0"
+        ),
+        pytest.param(
+            lambda: checks.require_int("k", 7, minimum=1, maximum=5),
+            ValueError,
+            "k: must be a whole number between 1 and 5, got 7",
+        ),
+        pytest.param(
+            lambda: checks.require_number("x", "1", above=0),
+            TypeError,
+            'x: must be a finite number > 0, got "1"',
+        ),
+        pytest.param(
+            lambda: checks.require_number("x", 1, minimum=0, below=1),
+            ValueError,
+            "x: must be a finite number in [0, 1), got 1",
+        ),
+        pytest.param(
+            lambda: checks.require_number("x", 10**400, maximum=5),
+            ValueError,
+            "x: must be a finite number <= 5, got 1000",
+        ),
+        pytest.param(
+            lambda: checks.require_seed("seed", 1.5),
+            TypeError,
+            "seed: must be None, a whole number >= 0 or a numpy.random.Generator, got 1.5",
+        ),
+        pytest.param(
+            lambda: checks.require_choice("order", "up", ("index", "random")),
+            ValueError,
+            'order: must be one of index, random, got "up"',
+        ),
+        pytest.param(
+            lambda: checks.require_text("name", ""), ValueError, "name: must be a non-empty string"
+        ),
+        pytest.param(
+            lambda: checks.require_assignment(MISSION),
+            TypeError,
+            "assignment: must be a cfopt.Assignment, got Mission",
+        ),
+    ],
+    ids=[
+        "int-float",
+        "int-range",
+        "number-text",
+        "number-interval",
+        "number-huge",
+        "seed-float",
+        "choice",
+        "text-empty",
+        "assignment",
+    ],
+)
+def test_checks_messages(call: Callable[[], Any], error: type, message: str) -> None:
+    with pytest.raises(error) as caught:
+        call()
+    assert str(caught.value).startswith(message)
+    wrong_type = isinstance(caught.value, TypeError)
+    assert wrong_type == (error is TypeError) and isinstance(caught.value, cfopt.MissionError)
+
+
+def test_checks_accept_numpy_and_refuse_bools():
+    assert checks.require_int("k", np.int64(3)) == 3 and checks.require_seed("s", np.uint8(4)) == 4
+    assert checks.require_bool("b", np.bool_(True)) is True
+    assert checks.require_number("x", np.float32(0.5), above=0) == 0.5
+    for check in (checks.require_int, checks.require_number, checks.require_seed):
+        with pytest.raises(TypeError, match="got true"):
+            check("v", True)
+    with pytest.raises(TypeError) as caught:
+        checks.require_int("services_per_robot", None, flag=True)
+    assert caught.value.cli_message.startswith("--services-per-robot: must be a whole number")
+
+
+def test_seed_like_is_defined_once():
+    """Every ``seed: SeedLike`` annotation names the one alias of :mod:`cfopt.checks`."""
+    root = Path(cfopt.__file__).parent.parent
+    defining = [
+        str(path.relative_to(root))
+        for package in ("cfopt", "heuristics", "proofs")
+        for path in sorted((root / package).rglob("*.py"))
+        if re.search(r"^SeedLike\b.*=", path.read_text(encoding="utf-8"), flags=re.M)
+    ]
+    assert defining == ["cfopt/checks.py"]

@@ -242,13 +242,13 @@ _M = _mission([[1], [1]], [[1]])
         pytest.param(
             lambda: proofs.is_nash_stable("mission.json", Assignment.empty(2)),
             TypeError,
-            "expected a cfopt.Mission",
+            "mission: must be a cfopt.Mission",
             id="not-a-mission",
         ),
         pytest.param(
             lambda: proofs.is_nash_stable(_M, {"assignment": []}),
             TypeError,
-            "expected a cfopt.Assignment",
+            "assignment: must be a cfopt.Assignment",
             id="not-an-assignment",
         ),
     ],
