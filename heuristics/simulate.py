@@ -57,7 +57,14 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Assignment, Mission, MissionError, require_mission
-from cfopt.checks import require_int, require_number, require_seed, require_text, shown
+from cfopt.checks import (
+    SeedLike,
+    require_int,
+    require_number,
+    require_seed,
+    require_text,
+    shown,
+)
 from cfopt.errors import MissionTypeError
 from heuristics._run import Run, seed_label
 from heuristics.agents.belief import Belief, Problem, encode_belief
@@ -183,7 +190,7 @@ def simulate(
     algorithm: str,
     network: str | NetworkSpec,
     *,
-    seed: int | np.random.Generator | None = None,
+    seed: SeedLike = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
     quiet_factor: int = QUIET_FACTOR,
     reward: str = "paper",

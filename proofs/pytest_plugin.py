@@ -35,7 +35,7 @@ from typing import Any
 import pytest
 
 from cfopt import Assignment, Mission, MissionError
-from cfopt.checks import require_int
+from cfopt.checks import require_bool, require_int
 from proofs.stability import MODES, nash_violations, pairwise_violations
 
 __all__ = ["AuditFailure", "Auditor", "cfopt_audit"]
@@ -103,6 +103,11 @@ class Auditor:
             raise ValueError(f"mode: must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
         if max_examples is not None:
             require_int("max_examples", max_examples, minimum=1)
+        capped = require_bool("capped", capped)
+        pairwise = require_bool("pairwise", pairwise)
+        nash = require_bool("nash", nash)
+        if seed is not None:
+            require_int("seed", seed)
         import hypothesis
         from hypothesis import HealthCheck, Phase, given, settings
 

@@ -121,6 +121,9 @@ def test_plugin_passes_stable_and_fails_broken_heuristics(pytester, capsys):
         pytest.param({"heuristic": 3}, TypeError, "heuristic: must be callable", id="heuristic"),
         pytest.param({"mode": "weak"}, ValueError, "mode: must be one of", id="mode"),
         pytest.param({"max_examples": 0}, ValueError, "max_examples: must be", id="examples"),
+        pytest.param({"capped": "yes"}, TypeError, "capped: must be a bool", id="capped"),
+        pytest.param({"nash": 1}, TypeError, "nash: must be a bool", id="nash"),
+        pytest.param({"seed": 1.5}, TypeError, "seed: must be a whole number", id="seed"),
     ],
 )
 def test_bad_arguments(cfopt_audit, kwargs, error, match):
