@@ -46,7 +46,7 @@ import networkx as nx
 import numpy as np
 import numpy.typing as npt
 from scipy.sparse import csr_array
-from scipy.sparse.csgraph import breadth_first_order, connected_components
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import KDTree
 
 from cfopt._jsonio import (
@@ -61,6 +61,8 @@ from cfopt._jsonio import (
 from cfopt.checks import is_whole
 from cfopt.errors import MissionError, describe, plural
 from cfopt.mission import Mission
+from heuristics._graphs import bfs_distances
+from heuristics._graphs import diameter as exact_diameter
 
 __all__ = [
     "MAX_DELAY_NS",
@@ -1306,52 +1308,6 @@ def _unique_inverse(
     return ordered[first], inverse
 
 
-def _bfs_distances(graph: csr_array, n: int, source: int) -> npt.NDArray[np.int64]:
-    """Hop distances from ``source`` in a connected graph: O(n + edges)."""
-    order, predecessors = breadth_first_order(
-        graph, source, directed=True, return_predecessors=True
-    )
-    parent = predecessors.tolist()
-    dist = [0] * n
-    for v in order.tolist()[1:]:
-        dist[v] = dist[parent[v]] + 1
-    return np.array(dist, dtype=np.int64)
-
-
-def _bounded_diameter(graph: csr_array, n: int) -> int:
-    """Takes and Kosters' extrema bounding (as in ``nx.diameter(usebounds=True)``).
-
-    Keeps a lower and an upper bound of every robot's eccentricity, refines them from
-    one breadth-first search at a time (alternately from the robot with the largest
-    upper bound and the one with the smallest lower bound), and stops when no robot's
-    upper bound exceeds the largest eccentricity found.  Usually a handful of searches;
-    n of them (O(n (n + edges))) on graphs such as rings where every robot is peripheral.
-    """
-    lower = np.zeros(n, dtype=np.int64)
-    upper = np.full(n, n, dtype=np.int64)
-    unvisited = np.ones(n, dtype=bool)
-    best = 0
-    source, from_high = 0, True
-    while True:
-        dist = _bfs_distances(graph, n, source)
-        eccentricity = int(dist.max())
-        unvisited[source] = False
-        best = max(best, eccentricity)
-        np.maximum(lower, np.maximum(dist, eccentricity - dist), out=lower)
-        np.minimum(upper, eccentricity + dist, out=upper)
-        exact = unvisited & (lower == upper)
-        if exact.any():
-            best = max(best, int(lower[exact].max()))
-        candidates = unvisited & (upper > best) & ~exact
-        if not candidates.any():
-            return best
-        if from_high:
-            source = int(np.argmax(np.where(candidates, upper, -1)))
-        else:
-            source = int(np.argmin(np.where(unvisited & ~exact, lower, n + 1)))
-        from_high = not from_high
-
-
 @dataclass(frozen=True, eq=False)
 class Network:
     """A concrete, connected network over a mission's robots (frozen; node i = robot i).
@@ -1505,9 +1461,12 @@ class Network:
         """``d_G``: the most hops a shortest path takes (0 for fewer than two robots).
 
         Closed forms for ``complete`` (1), ``ring`` (n // 2) and ``grid`` ((rows - 1) +
-        (columns - 1)); otherwise Takes and Kosters' extrema bounding, the method of
-        ``nx.diameter(G, usebounds=True)``, over breadth-first searches run by scipy:
-        usually a handful of O(n + edges) searches, at worst n of them.
+        (columns - 1)); otherwise exact by breadth-first searches run by scipy, each
+        O(n log n + edges), certified by eccentricity bounds and pair lists
+        (:func:`heuristics._graphs.diameter`): a handful of searches on graphs with
+        peripheral fringes (geometric, grids, trees), about a dominating set's worth
+        (order n / degree) on G(n, p), where nearly every robot is one hop from the
+        diameter.
         """
         if self.n <= 1:
             return 0
@@ -1518,7 +1477,7 @@ class Network:
         if self.spec.topology == "grid":
             rows, columns = _grid_shape(self.n)
             return rows - 1 + columns - 1
-        return _bounded_diameter(self._graph, self.n)
+        return exact_diameter(self._graph)
 
     # ------------------------------------------------------------------ routes
     def _check_robot(self, i: Any) -> None:
@@ -1529,7 +1488,7 @@ class Network:
         cache: dict[int, tuple[Any, Any]] = self._route_cache  # type: ignore[attr-defined]
         found = cache.get(target)
         if found is None:
-            dist = _bfs_distances(self._graph, self.n, target)
+            dist = bfs_distances(self._graph, target)
             rows = self._rows
             toward = dist[self.indices] == dist[rows] - 1
             candidates = np.where(toward, self.indices, self.n)  # type: ignore[arg-type]
