@@ -11,7 +11,7 @@ import sys
 import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, BinaryIO
 
 from cfopt._limits import format_bytes, require_memory
 from cfopt.checks import require_bool
@@ -31,6 +31,7 @@ __all__ = [
     "expect_list",
     "expect_object",
     "layout_json",
+    "open_regular_file",
     "read_json",
     "read_text_file",
     "source_name",
@@ -119,15 +120,27 @@ def read_text_file(path: str | os.PathLike[str]) -> str:
     return _read_path(path, os.fspath(path))
 
 
-def _read_path(path: str | os.PathLike[str], name: str) -> str:
-    """Read a regular file; anything else (a FIFO would block forever) is refused unread."""
+def open_regular_file(
+    path: str | os.PathLike[str],
+    name: str,
+    *,
+    stdin_hint: bool = True,
+    expected: str = "a JSON file",
+) -> tuple[BinaryIO, int]:
+    """Open a regular file for binary reading: ``(handle, size in bytes)``.
+
+    Anything else (a FIFO would block forever, a device never ends) is refused unread
+    with a :class:`MissionError` starting with ``name``; ``stdin_hint`` says whether the
+    message may suggest ``'-'`` (for the inputs that read stdin from ``-``); ``expected``
+    names what a directory was given for.
+    """
     try:
         # O_NONBLOCK: opening a FIFO that has no writer must not hang before the check
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:
         raise MissionError(f"{name}: no such file") from None
     except IsADirectoryError:
-        raise MissionError(f"{name}: is a directory, not a JSON file") from None
+        raise MissionError(f"{name}: is a directory, not {expected}") from None
     except PermissionError:
         raise MissionError(f"{name}: permission denied") from None
     except OSError as exc:
@@ -138,16 +151,17 @@ def _read_path(path: str | os.PathLike[str], name: str) -> str:
     if not stat.S_ISREG(info.st_mode):
         os.close(fd)
         if stat.S_ISDIR(info.st_mode):
-            raise MissionError(f"{name}: is a directory, not a JSON file")
-        raise MissionError(
-            f"{name}: is {_file_kind(info.st_mode)}, not a regular file; "
-            "give a file, or '-' to read stdin"
-        )
-    with os.fdopen(fd, "rb") as handle:
-        require_memory(
-            info.st_size * _PARSE_MEMORY_PER_BYTE,
-            f"{name}: {format_bytes(info.st_size)} of JSON",
-        )
+            raise MissionError(f"{name}: is a directory, not {expected}")
+        hint = "give a file, or '-' to read stdin" if stdin_hint else "give a regular file"
+        raise MissionError(f"{name}: is {_file_kind(info.st_mode)}, not a regular file; {hint}")
+    return os.fdopen(fd, "rb"), info.st_size
+
+
+def _read_path(path: str | os.PathLike[str], name: str, *, stdin_hint: bool = True) -> str:
+    """Read a regular file; anything else (a FIFO would block forever) is refused unread."""
+    handle, size = open_regular_file(path, name, stdin_hint=stdin_hint)
+    with handle:
+        require_memory(size * _PARSE_MEMORY_PER_BYTE, f"{name}: {format_bytes(size)} of JSON")
         try:
             data = handle.read()
         except OSError as exc:

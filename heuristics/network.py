@@ -32,11 +32,13 @@ ticks, delays and losses, byte for byte.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
 import re
-from collections.abc import Callable, Mapping, Sequence
+from array import array
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
@@ -55,16 +57,18 @@ from cfopt._jsonio import (
     check_text,
     expect_list,
     expect_object,
+    open_regular_file,
     read_json,
-    read_text_file,
 )
+from cfopt._limits import format_bytes, require_memory
 from cfopt.checks import is_whole
-from cfopt.errors import MissionError, describe, plural
+from cfopt.errors import MissionError, describe, is_unicode, plural
 from cfopt.mission import Mission
 from heuristics._graphs import bfs_distances
 from heuristics._graphs import diameter as exact_diameter
 
 __all__ = [
+    "EDGE_LIST_MEMORY_PER_BYTE",
     "MAX_DELAY_NS",
     "MAX_DURATION_NS",
     "NETWORK_FORMAT",
@@ -91,6 +95,11 @@ MAX_DELAY_NS = 2**62
 ER_DRAWS = 100
 #: How many Watts-Strogatz graphs ``smallworld`` draws before giving up.
 SMALLWORLD_TRIES = 100
+#: Memory a text edge list takes, per byte of the file, from reading it to a built
+#: network (measured: a peak of about 12 bytes per byte, ids such as ``r12345``, 1.3
+#: million edges); a file whose size times this exceeds the machine's memory is refused
+#: before it is read.
+EDGE_LIST_MEMORY_PER_BYTE = 16
 
 _TOPOLOGY_PARAMS: Mapping[str, tuple[str, ...]] = {
     "complete": (),
@@ -662,7 +671,7 @@ class NetworkSpec:
     #: The key of the edge list in the JSON they came from ("" for a bare list).
     edge_key: str = field(default="edges", compare=False, repr=False)
     #: The line of each edge in a text edge list (for messages).
-    edge_lines: tuple[int, ...] | None = field(default=None, compare=False, repr=False)
+    edge_lines: Sequence[int] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.topology not in TOPOLOGIES:
@@ -701,8 +710,13 @@ class NetworkSpec:
                 f"path: must be a path without spaces (write a network JSON file for other "
                 f"paths), got {describe(self.path)}"
             )
+        if not _plain_pairs(self.edges):
+            object.__setattr__(self, "edges", self._checked_pairs())
+
+    def _checked_pairs(self) -> tuple[tuple[str, str], ...]:
+        """The edges as tuples, or the first broken rule named by its place."""
         edges = []
-        for index, pair in enumerate(self.edges):
+        for index, pair in enumerate(self.edges):  # type: ignore[arg-type]
             place = f"edges[{index}]"
             if not isinstance(pair, tuple | list) or len(pair) != 2:
                 raise MissionError(f"{place}: must be a pair of robot ids, got {describe(pair)}")
@@ -710,8 +724,8 @@ class NetworkSpec:
                 check_text(pair[j], f"{place}[{j}]", "a robot id (a non-empty string)")
             if pair[0] == pair[1]:
                 raise MissionError(f"{place}: links robot {describe(pair[0])} to itself")
-            edges.append((pair[0], pair[1]))
-        object.__setattr__(self, "edges", tuple(edges))
+            edges.append(pair if type(pair) is tuple else (pair[0], pair[1]))
+        return tuple(edges)
 
     # ------------------------------------------------------------------ parsing
     @classmethod
@@ -826,7 +840,7 @@ class NetworkSpec:
         fields: dict[str, Any] = {"path": path, "origin": token, "edge_key": ""}
         try:
             if not path.endswith(".json"):
-                fields["edges"], fields["edge_lines"] = _text_edges(read_text_file(path))
+                fields["edges"], fields["edge_lines"] = _read_text_edges(path)
                 return fields
             data, _ = read_json(path)
             if not isinstance(data, dict):
@@ -1085,21 +1099,30 @@ class NetworkSpec:
         return _nx_edges(graph)
 
     def _file_edges(self, mission: Mission) -> npt.NDArray[np.int64]:
+        """The edges as robot indices: one C-level pass of dict look-ups, then, only when
+        an id is unknown, the pass that finds the first one."""
         index = mission.robot_index
         edges = self.edges or ()
-        out = np.empty((len(edges), 2), dtype=np.int64)
+        try:
+            flat = np.fromiter(
+                map(index.__getitem__, itertools.chain.from_iterable(edges)),
+                dtype=np.int64,
+                count=2 * len(edges),
+            )
+        except KeyError:
+            pass
+        else:
+            return flat.reshape(-1, 2)
         for row, pair in enumerate(edges):
             for j, rid in enumerate(pair):
-                column = index.get(rid)
-                if column is None:
+                if rid not in index:
                     raise self._edges_error(
                         f"unknown robot id {describe(rid)} (the mission has "
                         f"{plural(mission.n_robots, 'robot')}: {_some_ids(mission.robot_ids)})",
                         row,
                         j,
                     )
-                out[row, j] = column
-        return out
+        raise AssertionError("unreachable: some id was unknown")
 
     def _edges_error(self, problem: str, row: int | None = None, j: int = 0) -> MissionError:
         """An error about the edges (``row``: about edge ``row``, end ``j``), placed in the
@@ -1183,22 +1206,68 @@ def _json_edges(value: Any, place: str) -> tuple[tuple[str, str], ...]:
     return tuple(edges)
 
 
-def _text_edges(text: str) -> tuple[tuple[tuple[str, str], ...], tuple[int, ...]]:
+def _read_text_edges(path: str) -> tuple[tuple[tuple[str, str], ...], npt.NDArray[np.int64]]:
+    """The edges of a text edge list and the line of each, read line by line.
+
+    The file's size is checked against the machine's memory first
+    (:data:`EDGE_LIST_MEMORY_PER_BYTE`), so that a list too large is refused unread.
+    """
+    handle, size = open_regular_file(path, path, stdin_hint=False, expected="an edge list")
+    with handle:
+        require_memory(
+            size * EDGE_LIST_MEMORY_PER_BYTE,
+            f"{path}: an edge list of {format_bytes(size)}",
+        )
+        try:
+            return _stream_text_edges(handle, path)
+        except OSError as exc:
+            raise MissionError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def _stream_text_edges(
+    handle: Iterable[bytes], name: str
+) -> tuple[tuple[tuple[str, str], ...], npt.NDArray[np.int64]]:
+    """Two robot ids per line (blank lines and ``#`` comments skipped), lines numbered
+    as ``str.splitlines`` numbers them; each distinct id is kept once.  O(size)."""
+    ids: dict[str, str] = {}
     edges: list[tuple[str, str]] = []
-    lines: list[int] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        words = line.split("#", 1)[0].split()
-        if not words:
-            continue
-        if len(words) != 2:
-            raise MissionError(
-                f"line {number}: expected two robot ids, got {plural(len(words), 'word')}"
-            )
-        if words[0] == words[1]:
-            raise MissionError(f"line {number}: links robot {describe(words[0])} to itself")
-        edges.append((words[0], words[1]))
-        lines.append(number)
-    return tuple(edges), tuple(lines)
+    lines = array("q")
+    number = offset = 0
+    for raw in handle:
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            where = offset + exc.start
+            raise MissionError(f"{name}: not UTF-8 text ({exc.reason} at byte {where})") from None
+        offset += len(raw)
+        for line in text.splitlines():
+            number += 1
+            words = (line.split("#", 1)[0] if "#" in line else line).split()
+            if not words:
+                continue
+            if len(words) != 2:
+                raise MissionError(
+                    f"line {number}: expected two robot ids, got {plural(len(words), 'word')}"
+                )
+            first, second = words
+            if first == second:
+                raise MissionError(f"line {number}: links robot {describe(first)} to itself")
+            edges.append((ids.setdefault(first, first), ids.setdefault(second, second)))
+            lines.append(number)
+    numbers = np.frombuffer(lines, dtype=np.int64) if lines else np.empty(0, dtype=np.int64)
+    numbers.setflags(write=False)
+    return tuple(edges), numbers
+
+
+def _plain_pairs(edges: Any) -> bool:
+    """Whether ``edges`` is already a tuple of pairs of distinct robot ids (each a
+    non-empty string): C-level passes, each distinct id checked once."""
+    if type(edges) is not tuple or not all(type(p) is tuple and len(p) == 2 for p in edges):
+        return False
+    ids = set(itertools.chain.from_iterable(edges))
+    if not all(type(rid) is str and rid and is_unicode(rid) for rid in ids):
+        return False
+    return not any(first == second for first, second in edges)
 
 
 def _some_ids(ids: Sequence[str], shown: int = 3) -> str:
