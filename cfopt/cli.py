@@ -491,8 +491,9 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         type=_positive_number,
         default=None,
         metavar="SEC",
-        help="with --network: simulated seconds after which the run is cut (default 3600; "
-        "real seconds with --backend mpi)",
+        help="wall-clock seconds after which a centralized run stops with the partition "
+        "reached (status time_limit; default: no limit); with --network simulated seconds "
+        "after which the run is cut (default 3600; real seconds with --backend mpi)",
     )
     sub.add_argument(
         "--backend",
@@ -521,8 +522,6 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         distributed = args.network is not None or args.backend == "mpi"
         if args.ranks is not None and args.backend != "mpi":
             raise MissionError("--ranks: only with --backend mpi")
-        if not distributed and args.time_limit is not None:
-            raise MissionError("--time-limit: only for distributed runs (give --network)")
         m = load_mission(args.mission)
         _check_output_free(args)
         options = _auction_options(args)
@@ -537,7 +536,8 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
                 )
             result = _distributed(args, m)
         else:
-            result = algorithm(m, seed=args.seed, order=args.order, **options, **model)
+            limit = {} if args.time_limit is None else {"time_limit": args.time_limit}
+            result = algorithm(m, seed=args.seed, order=args.order, **options, **model, **limit)
         return finish_run(args, m, result)
 
     return run
@@ -568,7 +568,7 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
         f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
         f"({out['percent_utility']:.2f}%), {plural(result.iterations, 'iteration')}, "
         f"{plural(result.rounds, 'round')}, {plural(result.messages, 'message')}, "
-        f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s",
+        f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s{_status_note(result)}",
         f"stability: Nash {_yes_no(out['nash_stable'])}, "
         f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
         f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
@@ -577,6 +577,13 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
         summary += _network_summary(result.network)
     _print_result(summary, assignment_json, args)
     return EXIT_OK
+
+
+def _status_note(result: Any) -> str:
+    """What the summary adds for a run its time limit cut (nothing for a complete run)."""
+    if result.status.value == "complete":
+        return ""
+    return " (stopped at the time limit: the partition reached so far)"
 
 
 _NETWORK_HELP = (

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from heuristics._run import NO_DEADLINE, Deadline
 from heuristics.reward import VOID, RewardModel, UtilityKey
 
 #: Float filter width for utility-weighted rewards of different tasks.
@@ -63,6 +64,8 @@ class Outcome:
     rounds: int = 0
     work: int = 0
     moves: list[tuple[int, int, int, int]] = field(default_factory=list)
+    #: Whether the rounds were cut at the engine's time limit.
+    cut: bool = False
 
 
 class _BestSlots:
@@ -199,8 +202,12 @@ def core_fast(
     order: str,
     capped: bool,
     rng: np.random.Generator,
+    deadline: Deadline = NO_DEADLINE,
 ) -> Outcome:
-    """The GRAPE-S rounds with robots grouped by slot key; see the module notes."""
+    """The GRAPE-S rounds with robots grouped by slot key; see the module notes.
+
+    ``deadline`` is checked before each round: once reached, the rounds stop and the
+    outcome is marked ``cut``."""
     n, S = caps.shape
     m = reqs.shape[0]
     tasks_per_service = (reqs > 0).sum(axis=0).astype(np.int64)
@@ -211,6 +218,9 @@ def core_fast(
         return out
     state = _State(caps, reqs, model, capped, m * S)
     while True:
+        if deadline.reached():
+            out.cut = True
+            break
         out.rounds += 1
         if order == "random":
             mover = state.last_wanting_in(rng.permutation(n))

@@ -6,8 +6,10 @@ encoding) are in :mod:`heuristics.communication`.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, fields
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -35,9 +37,12 @@ from heuristics.communication import (
 
 __all__ = [
     "HEADER_BYTES",
+    "NO_DEADLINE",
     "ORDERS",
     "ROBOT_ENTRY_BYTES",
+    "Deadline",
     "Run",
+    "RunStatus",
     "belief_bytes",
     "broadcast_cost",
     "check_order",
@@ -116,6 +121,69 @@ def _rows(name: str, value: Any, width: int) -> tuple[tuple[Any, ...], ...]:
     return tuple(map(tuple, value))
 
 
+class RunStatus(Enum):
+    """How a run ended: ``COMPLETE`` (the algorithm's own end) or ``TIME_LIMIT`` (cut
+    at its ``time_limit``, with the partition reached so far)."""
+
+    COMPLETE = "complete"
+    TIME_LIMIT = "time_limit"
+
+
+class Deadline:
+    """A centralized engine's time limit: ``seconds`` of wall-clock time from
+    ``started`` (a ``time.perf_counter()`` reading), or none.
+
+    :meth:`reached` reads the clock (about 0.1 microsecond) only when there is a limit,
+    so the engines call it once per round; once reached it stays reached.
+
+    >>> Deadline(None).reached(), Deadline(1e-9, started=0.0).reached()
+    (False, True)
+    >>> Deadline(0)
+    Traceback (most recent call last):
+    ...
+    cfopt.errors.MissionError: time_limit: must be a number of seconds > 0 or None, got 0
+    """
+
+    def __init__(self, seconds: float | None, *, started: float | None = None) -> None:
+        if seconds is not None:
+            seconds = require_number(
+                "time_limit", seconds, above=0, what="a number of seconds", or_none=True
+            )
+        self.seconds = None if seconds is None else float(seconds)
+        begin = time.perf_counter() if started is None else started
+        self._end = math.inf if seconds is None else begin + float(seconds)
+        self._reached = False
+
+    def reached(self) -> bool:
+        """Whether the time limit has passed (always ``False`` without a limit)."""
+        if self._end == math.inf:
+            return False
+        if not self._reached:
+            self._reached = time.perf_counter() >= self._end
+        return self._reached
+
+    @property
+    def status(self) -> RunStatus:
+        """``TIME_LIMIT`` once :meth:`reached` said so, else ``COMPLETE``."""
+        return RunStatus.TIME_LIMIT if self._reached else RunStatus.COMPLETE
+
+
+#: The deadline of a run without a time limit.
+NO_DEADLINE = Deadline(None)
+
+
+def _status(value: Any) -> RunStatus:
+    """A :class:`RunStatus`, or its value (``"complete"``, ``"time_limit"``)."""
+    if isinstance(value, RunStatus):
+        return value
+    if isinstance(value, str):
+        values = [status.value for status in RunStatus]
+        if value in values:
+            return RunStatus(value)
+        raise MissionError(f"status: must be one of {', '.join(values)}, got {shown(value)}")
+    raise MissionTypeError(f"status: must be a heuristics.RunStatus, got {shown(value)}")
+
+
 def _empty_trajectory() -> npt.NDArray[np.int64]:
     out = np.zeros((0, 4), dtype=np.int64)
     out.setflags(write=False)
@@ -170,6 +238,10 @@ class Run:
         unicast/full, unicast/compact), so that models compare without running again;
         ``messages`` and ``bytes`` are the row of the run's own model.  Empty for the
         runs that do not count by model (distributed runs, which count real payloads).
+    status : RunStatus
+        ``COMPLETE``, or ``TIME_LIMIT`` when the engine was cut at its ``time_limit``:
+        then the assignment is the partition reached so far and the counts are those of
+        the rounds run.
 
     Notes
     -----
@@ -192,6 +264,7 @@ class Run:
     options: tuple[tuple[str, Any], ...] = ()
     network: Any = None
     communication: Table = ()
+    status: RunStatus = RunStatus.COMPLETE
 
     def __post_init__(self) -> None:
         require_text("algorithm", self.algorithm)
@@ -204,6 +277,7 @@ class Run:
         object.__setattr__(self, "trajectory", _trajectory(self.trajectory))
         object.__setattr__(self, "options", _rows("options", self.options, 2))
         object.__setattr__(self, "communication", _rows("communication", self.communication, 4))
+        object.__setattr__(self, "status", _status(self.status))
 
     def communication_cost(
         self, medium: str = "broadcast", encoding: str = "full"
@@ -241,14 +315,16 @@ class Run:
 
     def to_dict(self, mission: Mission) -> dict[str, Any]:
         """The ``run`` JSON object that ``cfopt run --json`` prints, without the stability
-        verdicts: the keys below, plus ``network`` for a distributed run and
-        ``communication`` (one object per model) when the run counted by model.
+        verdicts: the keys below (``status``: ``"complete"`` or ``"time_limit"``), plus
+        ``network`` for a distributed run and ``communication`` (one object per model)
+        when the run counted by model.
 
         ``nash_stable`` and ``pairwise_stable`` are added by the caller from ``proofs``.
         """
         a = self.assignment
         return {
             "algorithm": self.algorithm,
+            "status": self.status.value,
             "seed": self.seed,
             "utility": a.utility(mission),
             "total_utility": mission.total_utility,

@@ -47,6 +47,7 @@ import numpy.typing as npt
 
 from cfopt import Mission
 from heuristics._auction import ENTRY_BYTES, HEADER_BYTES, Bundle, BundleFinder
+from heuristics._run import NO_DEADLINE, Deadline
 
 __all__ = ["DescendingAuction", "Outcome", "Touched", "bid_messages", "core", "greedy_basis"]
 
@@ -304,9 +305,14 @@ def _codes(rows: npt.NDArray[np.bool_]) -> list[int]:
 # -------------------------------------------------------------------------- engine
 
 
-def core(mission: Mission, eps: Fraction, schedule: str) -> Outcome:
-    """Run the auction; see :func:`heuristics.sda.sda` Notes and this module's docstring."""
-    return _Auction(mission, eps, schedule).run()
+def core(
+    mission: Mission, eps: Fraction, schedule: str, deadline: Deadline = NO_DEADLINE
+) -> Outcome:
+    """Run the auction; see :func:`heuristics.sda.sda` Notes and this module's docstring.
+
+    ``deadline`` is checked before each award round: once reached, the auction stops
+    with the sales made so far."""
+    return _Auction(mission, eps, schedule).run(deadline)
 
 
 class DescendingAuction(ABC):
@@ -535,12 +541,12 @@ class DescendingAuction(ABC):
             return x >= self.D
         return bool(self.alive.size) and self.total >= self.alive.size * self.D
 
-    def run(self) -> Outcome:
-        """The auction to its stopping round."""
+    def run(self, deadline: Deadline = NO_DEADLINE) -> Outcome:
+        """The auction to its stopping round, or to ``deadline``."""
         out = self.out
         if self.n == 0 or self.m == 0:
             return out
-        while self.alive.size and not self.staffed.all():
+        while self.alive.size and not self.staffed.all() and not deadline.reached():
             best, bidders = self.next_award()
             if best is None:  # nobody will ever bid: the wages run down to 0
                 R = self.R

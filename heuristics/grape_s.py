@@ -19,7 +19,7 @@ from heuristics._grape_s_fast import BAND as _BAND
 from heuristics._grape_s_fast import EXACT_FLOAT_LIMIT as _EXACT_FLOAT_LIMIT
 from heuristics._grape_s_fast import Outcome as _Outcome
 from heuristics._grape_s_fast import core_fast
-from heuristics._run import Run, check_order, moves_run
+from heuristics._run import NO_DEADLINE, Deadline, Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.reward import VOID, RewardModel, reward_model
 
@@ -35,6 +35,7 @@ def grape_s(
     reward: str = "paper",
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run GRAPE-S (centralized, synchronous, fully connected) on ``mission``.
 
@@ -57,13 +58,16 @@ def grape_s(
         (:mod:`heuristics.communication`).
     encoding : {"full", "compact"}, default "full"
         The belief's encoding: ``16 + 4 n`` bytes, or the slots bit-packed.
+    time_limit : float, optional
+        Wall-clock seconds after which no further round starts (checked before each
+        round); the run then returns the partition reached, ``status`` ``TIME_LIMIT``.
 
     Returns
     -------
     Run
         ``algorithm="grape-s"``; ``trajectory`` lists the applied moves; ``options``
         records ``medium`` and ``encoding``; ``communication`` holds the counts under
-        every model.
+        every model; ``status`` says whether the time limit cut it.
 
     Notes
     -----
@@ -134,13 +138,22 @@ def grape_s(
     (24, 672)
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
     capped = require_bool("capped", capped)
     model = reward_model(mission, reward)
     comm = comm_model(medium, encoding)
-    out = _core(mission.capabilities, mission.requirements, model, order, capped, rng)
+    out = _core(
+        mission.capabilities,
+        mission.requirements,
+        model,
+        order,
+        capped,
+        rng,
+        deadline=deadline,
+    )
     n_slots = mission.n_tasks * mission.n_services
     table = belief_rounds_table(mission.n_robots, n_slots, out.rounds)
     messages, nbytes = table_cost(table, comm)
@@ -158,6 +171,7 @@ def grape_s(
         work=out.work,
         options=(("order", order), ("capped", capped), ("reward", reward), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
@@ -170,15 +184,17 @@ def _core(
     rng: np.random.Generator,
     *,
     literal: bool = False,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _Outcome:
     """The GRAPE-S rounds: the grouped engine, or ``_core_literal`` when ``literal``.
 
     Both make the same moves, draw the same permutations from ``rng`` and return the same
-    outcome; :mod:`heuristics._grape_s_fast` describes the grouped engine.
+    outcome; :mod:`heuristics._grape_s_fast` describes the grouped engine.  Both check
+    ``deadline`` before each round.
     """
     if literal:
-        return _core_literal(caps, reqs, model, order, capped, rng)
-    return core_fast(caps, reqs, model, order, capped, rng)
+        return _core_literal(caps, reqs, model, order, capped, rng, deadline)
+    return core_fast(caps, reqs, model, order, capped, rng, deadline)
 
 
 def _core_literal(
@@ -188,6 +204,7 @@ def _core_literal(
     order: str,
     capped: bool,
     rng: np.random.Generator,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _Outcome:
     """The GRAPE-S rounds with O(n) numpy work per round (the engine before grouping).
 
@@ -273,6 +290,9 @@ def _core_literal(
     random_order = order == "random"
     moves = out.moves
     while True:
+        if deadline.reached():
+            out.cut = True
+            break
         out.rounds += 1
         perm = rng.permutation(n) if random_order else None
         # A(T): the best service of each capability type, by exact ranking of the S bests.

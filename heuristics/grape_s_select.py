@@ -142,7 +142,7 @@ import numpy.typing as npt
 from cfopt import Mission, require_mission
 from cfopt.checks import SeedLike, require_bool, require_seed
 from heuristics._grape_s_fast import Outcome as _Outcome
-from heuristics._run import Run, check_order, moves_run
+from heuristics._run import NO_DEADLINE, Deadline, Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 
 __all__ = ["fillable", "grape_s_select", "select_priorities"]
@@ -162,6 +162,7 @@ def grape_s_select(
     exchange: bool = True,
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run GRAPE-S-Select (centralized, synchronous, fully connected) on ``mission``.
 
@@ -181,6 +182,10 @@ def grape_s_select(
         The communication model of ``messages`` and ``bytes`` (Counting below,
         :mod:`heuristics.communication`); recorded in ``options``, and ``communication``
         holds the counts under every model.
+
+    time_limit : float, optional
+        Wall-clock seconds after which no further round starts; the run then returns
+        the partition reached, ``status`` ``TIME_LIMIT``.
 
     Returns
     -------
@@ -242,12 +247,13 @@ def grape_s_select(
     True
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
     exchange = require_bool("exchange", exchange)
     comm = comm_model(medium, encoding)
-    out = _Engine(mission, order, exchange, rng).run()
+    out = _Engine(mission, order, exchange, rng).run(deadline)
     n, m = mission.n_robots, mission.n_tasks
     table = belief_rounds_table(n, m * mission.n_services, out.rounds, extra_bits=2 * m)
     messages, nbytes = table_cost(table, comm)
@@ -265,6 +271,7 @@ def grape_s_select(
         work=out.work,
         options=(("order", order), ("exchange", exchange), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
@@ -723,7 +730,8 @@ class _Engine:
         )
 
     # -- the run
-    def run(self) -> _Outcome:
+    def run(self, deadline: Deadline = NO_DEADLINE) -> _Outcome:
+        """The rounds until none moves and no phase step applies, or ``deadline``."""
         out = self.out
         n, m = self.n, self.m
         if n == 0:
@@ -739,7 +747,7 @@ class _Engine:
             out.moves,
             self.wants,
         )
-        while True:
+        while not deadline.reached():
             out.rounds += 1
             best, want = wants(top, cur)
             if random_order:

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from cfopt import Mission, require_mission
 from cfopt.checks import SeedLike, require_seed
-from heuristics._run import Run, check_order, moves_run
+from heuristics._run import NO_DEADLINE, Deadline, Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.grape_s import _core
 from heuristics.reward import RewardModel, reward_model
@@ -27,6 +27,7 @@ def pair_grape_s(
     reward: str = "paper",
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run Pair-GRAPE-S (the seed's Algorithm 2) on ``mission``.
 
@@ -45,6 +46,11 @@ def pair_grape_s(
     encoding : {"full", "compact"}, default "full"
         The communication model of ``messages`` and ``bytes``, as in
         :func:`heuristics.grape_s` (:mod:`heuristics.communication`).
+
+    time_limit : float, optional
+        Wall-clock seconds after which no further round (GRAPE-S round or pass of the
+        second phase) starts; the run then returns the partition reached, ``status``
+        ``TIME_LIMIT``.
 
     Returns
     -------
@@ -107,15 +113,16 @@ def pair_grape_s(
     (3, 6, 144)
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
     model = reward_model(mission, reward)
     comm = comm_model(medium, encoding)
     caps, reqs = mission.capabilities, mission.requirements
-    first = _core(caps, reqs, model, order, True, rng)
+    first = _core(caps, reqs, model, order, True, rng, deadline=deadline)
     second = _pairwise_step(
-        caps, reqs, model, order, rng, first.task, first.service, first.iterations
+        caps, reqs, model, order, rng, first.task, first.service, first.iterations, deadline
     )
     rounds = first.rounds + second.rounds
     table = belief_rounds_table(mission.n_robots, mission.n_tasks * mission.n_services, rounds)
@@ -136,6 +143,7 @@ def pair_grape_s(
         pairwise_step_ran=second.ran,
         options=(("order", order), ("capped", True), ("reward", reward), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
@@ -159,6 +167,7 @@ def _pairwise_step(
     task_in: npt.NDArray[np.int64],
     service_in: npt.NDArray[np.int64],
     base_iteration: int,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _PairOutcome:
     """The exchange passes; see :func:`pair_grape_s` Notes."""
     n, n_services = caps.shape
@@ -175,10 +184,10 @@ def _pairwise_step(
     def needed() -> bool:
         return bool(short.any()) and bool((task < 0).any())
 
-    if not needed():
+    if not needed() or deadline.reached():
         return out
     out.ran = True
-    while needed():
+    while needed() and not deadline.reached():
         scan = rng.permutation(n) if order == "random" else np.arange(n)
         made = 0
         for o in scan[task[scan] < 0].tolist():

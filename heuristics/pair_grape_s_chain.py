@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import shortest_path
 
 from cfopt import Mission, require_mission
 from cfopt.checks import SeedLike, require_seed
-from heuristics._run import Run, check_order, moves_run
+from heuristics._run import NO_DEADLINE, Deadline, Run, check_order, moves_run
 from heuristics.communication import belief_rounds_table, comm_model, table_cost
 from heuristics.grape_s import _core
 from heuristics.reward import RewardModel, reward_model
@@ -51,6 +51,7 @@ def pair_grape_s_chain(
     reward: str = "paper",
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run Pair-GRAPE-S with chain exchanges on ``mission``.
 
@@ -69,6 +70,11 @@ def pair_grape_s_chain(
     encoding : {"full", "compact"}, default "full"
         The communication model of ``messages`` and ``bytes`` (message model below,
         :mod:`heuristics.communication`).
+
+    time_limit : float, optional
+        Wall-clock seconds after which no further round (GRAPE-S round or pass of the
+        second phase) starts; the run then returns the partition reached, ``status``
+        ``TIME_LIMIT``.
 
     Returns
     -------
@@ -230,14 +236,17 @@ def pair_grape_s_chain(
     (28, 744)
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     rng = np.random.default_rng(require_seed("seed", seed))
     check_order(order)
     model = reward_model(mission, reward)
     comm = comm_model(medium, encoding)
     caps, reqs = mission.capabilities, mission.requirements
-    first = _core(caps, reqs, model, order, True, rng)
-    second = _chain_step(caps, reqs, model, order, rng, first.task, first.service, first.iterations)
+    first = _core(caps, reqs, model, order, True, rng, deadline=deadline)
+    second = _chain_step(
+        caps, reqs, model, order, rng, first.task, first.service, first.iterations, deadline
+    )
     rounds = first.rounds + second.rounds
     table = belief_rounds_table(
         mission.n_robots,
@@ -262,6 +271,7 @@ def pair_grape_s_chain(
         pairwise_step_ran=second.ran,
         options=(("order", order), ("capped", True), ("reward", reward), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
@@ -287,6 +297,7 @@ def _chain_step(
     task_in: npt.NDArray[np.int64],
     service_in: npt.NDArray[np.int64],
     base_iteration: int,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _ChainOutcome:
     """The chain passes; see :func:`pair_grape_s_chain` Notes."""
     n, n_services = caps.shape
@@ -309,10 +320,10 @@ def _chain_step(
         out.work += work
         return lengths
 
-    if not needed():
+    if not needed() or deadline.reached():
         return out
     out.ran = True
-    while needed():
+    while needed() and not deadline.reached():
         scan = rng.permutation(n) if order == "random" else np.arange(n)
         position = np.empty(n, dtype=np.int64)
         position[scan] = np.arange(n)

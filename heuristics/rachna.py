@@ -58,7 +58,7 @@ from heuristics._auction import (
     check_order,
 )
 from heuristics._rachna_fast import Ledger, match_slots
-from heuristics._run import Run, seed_label
+from heuristics._run import NO_DEADLINE, Deadline, Run, seed_label
 from heuristics.communication import comm_model, media_table, table_cost
 
 __all__ = ["MAX_ROUNDS", "SCHEDULES", "rachna_dt"]
@@ -90,6 +90,7 @@ def rachna_dt(
     max_rounds: int = MAX_ROUNDS,
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run RACHNA with dynamic threshold (centralized, synchronous rounds) on ``mission``.
 
@@ -119,6 +120,10 @@ def rachna_dt(
     encoding : {"full", "compact"}, default "full"
         Accepted and recorded for the common signature: the encoding is that of beliefs
         (partitions), and RACHNA_dt sends none, so both give the same counts.
+
+    time_limit : float, optional
+        Wall-clock seconds after which no further bidding round starts; the run then
+        returns the holdings reached, ``status`` ``TIME_LIMIT``.
 
     Returns
     -------
@@ -279,6 +284,7 @@ def rachna_dt(
     cfopt.errors.MissionError: eps: RACHNA_dt needs more than max_rounds=1000 rounds ...
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     n = mission.n_robots
     eps_q = Fraction(1, max(n, 1)) if eps is None else check_eps(eps)
@@ -288,7 +294,7 @@ def rachna_dt(
     max_rounds = require_int("max_rounds", max_rounds, minimum=1)
     comm = comm_model(medium, encoding)
     require_seed("seed", seed)  # RACHNA_dt draws nothing
-    out = _core(mission, eps_q, max_rounds, schedule=schedule)
+    out = _core(mission, eps_q, max_rounds, schedule=schedule, deadline=deadline)
     table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)
     return Run(
@@ -304,6 +310,7 @@ def rachna_dt(
         trajectory=out.moves.array(),
         options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
@@ -473,17 +480,19 @@ def _core(
     jump: bool = True,
     schedule: str = "simultaneous",
     fast: bool = True,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _Outcome:
     """The auction rounds of ``schedule``; see :func:`rachna_dt` Notes for the method.
 
     ``jump=False`` turns the jump over repeating rounds off; ``fast=False`` runs the
     simultaneous rounds on the literal price book (one sort of the robots and one search
     per bidding task every round) instead of :class:`heuristics._rachna_fast.Ledger`
-    (the tests compare all of them).  Complexity as :func:`rachna_dt`.
+    (the tests compare all of them).  Complexity as :func:`rachna_dt`.  ``deadline`` is
+    checked before each round: once reached, the rounds stop with the holdings reached.
     """
     if schedule == "simultaneous":
-        return _simultaneous(mission, eps, max_rounds, jump, fast)
-    return _sequential(mission, eps, max_rounds, jump)
+        return _simultaneous(mission, eps, max_rounds, jump, fast, deadline)
+    return _sequential(mission, eps, max_rounds, jump, deadline)
 
 
 def _market(mission: Mission, eps: Fraction) -> tuple[Any, ...]:
@@ -504,7 +513,13 @@ def _market(mission: Mission, eps: Fraction) -> tuple[Any, ...]:
     )  # fmt: skip
 
 
-def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) -> _Outcome:
+def _sequential(
+    mission: Mission,
+    eps: Fraction,
+    max_rounds: int,
+    jump: bool,
+    deadline: Deadline = NO_DEADLINE,
+) -> _Outcome:
     """The sequential reading (tasks act one after another); see :func:`rachna_dt`."""
     _, reqs, n, m, finder, utilities, budget, need64, caps64, m_s, match_work = _market(
         mission, eps
@@ -528,7 +543,7 @@ def _sequential(mission: Mission, eps: Fraction, max_rounds: int, jump: bool) ->
     check = _checkpoint(out, holdings, limit)
     span = 1
     log: list[tuple[int, int]] = []
-    while True:
+    while not deadline.reached():
         if out.rounds >= max_rounds:
             raise limit.too_many()
         out.rounds += 1
@@ -674,7 +689,12 @@ class _BidLog:
 
 
 def _simultaneous(
-    mission: Mission, eps: Fraction, max_rounds: int, jump: bool, fast: bool = True
+    mission: Mission,
+    eps: Fraction,
+    max_rounds: int,
+    jump: bool,
+    fast: bool = True,
+    deadline: Deadline = NO_DEADLINE,
 ) -> _Outcome:
     """The simultaneous reading (every task bids on the round's opening wages, then the
     bids are awarded); see :func:`rachna_dt` Notes for the method and the proofs."""
@@ -700,7 +720,7 @@ def _simultaneous(
     check = _checkpoint(out, holdings, limit)
     span = 1
     log = _BidLog()
-    while True:
+    while not deadline.reached():
         if out.rounds >= max_rounds:
             raise limit.too_many()
         out.rounds += 1

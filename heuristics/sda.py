@@ -14,7 +14,7 @@ import numpy as np
 from cfopt import Assignment, Mission, MissionError, require_mission
 from cfopt.checks import SeedLike, require_seed
 from heuristics._auction import check_eps, check_order
-from heuristics._run import Run, seed_label
+from heuristics._run import Deadline, Run, seed_label
 from heuristics._sda_fast import DescendingAuction
 from heuristics._sda_fast import Outcome as _Outcome
 from heuristics._sda_fast import Touched as _Touched  # noqa: F401 - the tests import it here
@@ -36,6 +36,7 @@ def sda(
     order: str = "index",
     medium: str = "broadcast",
     encoding: str = "full",
+    time_limit: float | None = None,
 ) -> Run:
     """Run the simultaneous descending auction (centralized, synchronous) on ``mission``.
 
@@ -59,6 +60,10 @@ def sda(
     encoding : {"full", "compact"}, default "full"
         Accepted and recorded for the common signature: the encoding is that of beliefs
         (partitions), and SDA sends none, so both give the same counts.
+
+    time_limit : float, optional
+        Wall-clock seconds after which no further award round starts; the run then
+        returns the sales made so far, ``status`` ``TIME_LIMIT``.
 
     Returns
     -------
@@ -161,6 +166,7 @@ def sda(
     (24, 480, (41, 820))
     """
     started = time.perf_counter()
+    deadline = Deadline(time_limit, started=started)
     require_mission(mission)
     eps_q = check_eps(eps)
     if schedule not in SCHEDULES:
@@ -168,7 +174,7 @@ def sda(
     check_order(order)
     comm = comm_model(medium, encoding)
     require_seed("seed", seed)  # SDA draws nothing
-    out = _core(mission, eps_q, schedule)
+    out = _core(mission, eps_q, schedule, deadline)
     table = media_table((out.messages, out.bytes), (out.cast_messages, out.cast_bytes))
     messages, nbytes = table_cost(table, comm)
     return Run(
@@ -184,6 +190,7 @@ def sda(
         trajectory=np.array(out.moves, dtype=np.int64).reshape(-1, 4),
         options=(("eps", str(eps_q)), ("schedule", schedule), ("order", order), *comm.options),
         communication=table,
+        status=deadline.status,
     )
 
 
