@@ -176,9 +176,9 @@ def _decode(data: bytes, name: str) -> str:
         raise MissionError(f"{name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
-def _read_text(source: Source, name: str) -> str:
+def _read_text(source: Source, name: str, *, stdin_hint: bool = True) -> str:
     if isinstance(source, str | os.PathLike):
-        return _read_path(source, name)
+        return _read_path(source, name, stdin_hint=stdin_hint)
     try:
         return source.read()
     except UnicodeDecodeError as exc:
@@ -203,7 +203,7 @@ def _line_column(text: str, position: int) -> tuple[int, int]:
     return line, position - (text.rfind("\n", 0, position) + 1) + 1
 
 
-def read_json(source: Source) -> tuple[Any, str]:
+def read_json(source: Source, *, stdin_hint: bool = True) -> tuple[Any, str]:
     """Parse a JSON file or stream; returns the value and the source's name.
 
     Objects that repeat a key come back as :class:`DuplicateKeysObject` so that the
@@ -212,9 +212,10 @@ def read_json(source: Source) -> tuple[Any, str]:
     FIFO or a device is refused before reading, so nothing blocks), files too large to
     parse in this machine's memory are refused with the memory they would need, and
     integers of more than 4300 digits are refused with their line and column.
+    ``stdin_hint``: whether the refusal of a FIFO or a device may suggest ``'-'``.
     """
     name = source_name(check_source(source))
-    text = _read_text(source, name)
+    text = _read_text(source, name, stdin_hint=stdin_hint)
     if not text.strip():
         raise MissionError(f"{name}: empty file, expected a JSON object")
     try:

@@ -10,7 +10,7 @@
 ['grape-s', 'grape-s-select', 'pair-grape-s', 'pair-grape-s-chain', 'rachna-dt', 'sda']
 """
 
-from heuristics._run import Run, belief_bytes, broadcast_cost
+from heuristics._run import Run, RunStatus, belief_bytes, broadcast_cost
 from heuristics.grape_s import grape_s
 from heuristics.grape_s_select import grape_s_select
 from heuristics.mpi import mpi_run
@@ -24,6 +24,7 @@ from heuristics.simulate import simulate
 __all__ = [
     "ALGORITHMS",
     "Run",
+    "RunStatus",
     "algorithm_names",
     "belief_bytes",
     "broadcast_cost",

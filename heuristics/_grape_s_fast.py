@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from cfopt._limits import require_memory
 from heuristics._run import NO_DEADLINE, Deadline
 from heuristics.reward import VOID, RewardModel, UtilityKey
 
@@ -236,6 +237,21 @@ def core_fast(
     return out
 
 
+#: Bytes per entry of the member table (a Python list: one pointer each).
+_TABLE_ENTRY_BYTES = 8
+
+
+def _check_member_table(m: int, S: int) -> None:
+    """Refuse, with the memory it would need, a mission whose (slot, service) member
+    table -- ``(m S + 1) S`` entries, one per slot and service -- cannot fit."""
+    entries = (m * S + 1) * S
+    what = (
+        f"{m} tasks x {S} services: GRAPE-S's table of the robots per (slot, service), "
+        f"(m S + 1) S = {entries:.3g} entries,"
+    )
+    require_memory(entries * _TABLE_ENTRY_BYTES, f"mission: {what}")
+
+
 class _State:
     """The partition, the best slots and the bucket tops of one GRAPE-S run."""
 
@@ -248,6 +264,7 @@ class _State:
         void: int,
     ) -> None:
         n, S = caps.shape
+        _check_member_table(reqs.shape[0], S)
         self.S, self.void, self.model = S, void, model
         self.best = _BestSlots(reqs, model, capped, n)
         self.buckets = _Buckets(model, S)

@@ -124,9 +124,10 @@ class _Problem(Exception):
 
 # ------------------------------------------------------------------------ values
 _NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,4})?"
-_NUMBER_RE = re.compile(rf"{_NUMBER}\Z")
-_DURATION_RE = re.compile(rf"({_NUMBER})(ns|us|ms|s)\Z")
-_WHOLE_RE = re.compile(r"\d{1,18}\Z")
+# re.ASCII: \d is 0-9 only (Python's \d, float() and int() also take other scripts' digits)
+_NUMBER_RE = re.compile(rf"{_NUMBER}\Z", re.ASCII)
+_DURATION_RE = re.compile(rf"({_NUMBER})(ns|us|ms|s)\Z", re.ASCII)
+_WHOLE_RE = re.compile(r"\d{1,18}\Z", re.ASCII)
 _UNITS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}
 _LONGEST_TEXT = 64
 
@@ -703,12 +704,10 @@ class NetworkSpec:
             return
         if self.edges is None:
             raise MissionError("edges: the file topology needs its edges")
-        if self.path is not None and (
-            not isinstance(self.path, str) or not self.path or any(c.isspace() for c in self.path)
-        ):
+        if self.path is not None and not _one_line_path(self.path):
             raise MissionError(
-                f"path: must be a path without spaces (write a network JSON file for other "
-                f"paths), got {describe(self.path)}"
+                f"path: must be a non-empty path without line breaks or leading or trailing "
+                f"spaces (write a network JSON file for other paths), got {describe(self.path)}"
             )
         if not _plain_pairs(self.edges):
             object.__setattr__(self, "edges", self._checked_pairs())
@@ -743,9 +742,12 @@ class NetworkSpec:
         Durations carry a unit (``ns``, ``us``, ``ms``, ``s``: ``5ms``, ``0.2s``).
         ``file=PATH`` reads an edge list now: a ``.json`` file holding a list of
         ``[robot_id, robot_id]`` pairs, or any other file with two robot ids per line
-        (blank lines and ``#`` comments allowed); a path cannot contain spaces.  When
-        ``text`` is a path ending in ``.json`` it is read as a network JSON file
-        (:meth:`from_json`).
+        (blank lines and ``#`` comments allowed); a path with spaces is taken whole
+        when it names an existing file (the longest such run of tokens).  When ``text``
+        is an existing path (spaces allowed) that does not start with a topology, or one
+        word ending in ``.json``, it is read as a network JSON file (:meth:`from_json`).
+        Numbers take ASCII digits only.  A network is never read from stdin: ``-`` and
+        ``file=-`` are refused.
 
         Every mistake (an unknown topology or key, a key given twice, a malformed or
         out-of-range value, a missing or misplaced topology parameter) is a
@@ -771,14 +773,14 @@ class NetworkSpec:
         tokens = stripped.split()
         if not tokens:
             raise _network_error(f"empty network spec; expected a topology ({_TOPOLOGY_LIST})")
-        if stripped.endswith(".json") and (
-            os.path.isfile(stripped) or (len(tokens) == 1 and "=" not in stripped)
-        ):
+        if stripped in ("-", "file=-"):
+            raise _token_error(stripped, _NO_STDIN)
+        if _names_a_file(stripped, tokens):
             try:
                 return cls.from_json(stripped)
             except MissionError as exc:
                 raise _network_error(str(exc)) from None
-        return cls._parse_tokens(tokens)
+        return cls._parse_tokens(_join_file_path(stripped, tokens))
 
     @classmethod
     def _parse_tokens(cls, tokens: Sequence[str]) -> NetworkSpec:
@@ -842,7 +844,7 @@ class NetworkSpec:
             if not path.endswith(".json"):
                 fields["edges"], fields["edge_lines"] = _read_text_edges(path)
                 return fields
-            data, _ = read_json(path)
+            data, _ = read_json(path, stdin_hint=False)
             if not isinstance(data, dict):
                 fields["edges"] = _json_edges(data, "")
                 return fields
@@ -925,14 +927,14 @@ class NetworkSpec:
         A ``file`` network read from a path keeps it as :attr:`path`, so that
         :meth:`to_text` can name the edges (``file=net.json`` reads them back).
         """
-        data, name = read_json(source)
+        data, name = read_json(source, stdin_hint=False)
         try:
             spec = cls.from_dict(data, origin=name)
         except MissionError as exc:
             raise exc.prefixed(name) from None
         if spec.topology == "file" and isinstance(source, str | os.PathLike):
             path = os.fspath(source)
-            if path and not any(c.isspace() for c in path):
+            if _one_line_path(path):
                 object.__setattr__(spec, "path", path)
         return spec
 
@@ -1160,6 +1162,44 @@ class NetworkSpec:
 
 
 _DEFAULT_TEXTS = NetworkSpec()._general_texts()
+_NO_STDIN = (
+    "a network is not read from stdin; give a network JSON file, or file=PATH for an edge list"
+)
+
+
+def _one_line_path(path: Any) -> bool:
+    """Whether ``path`` can stand in a one-line spec: a non-empty string without line
+    breaks or leading or trailing whitespace (inner spaces are fine)."""
+    return (
+        isinstance(path, str)
+        and bool(path)
+        and path == path.strip()
+        and len(path.splitlines()) == 1
+    )
+
+
+def _names_a_file(stripped: str, tokens: Sequence[str]) -> bool:
+    """Whether the whole spec is the path of a network JSON file: an existing path (of
+    any name, spaces included) that does not start as a spec does, or one word ending
+    in ``.json`` (then a missing file is said to be missing)."""
+    head = tokens[0]
+    if head in _TOPOLOGY_PARAMS or head.startswith("file="):
+        return False
+    if os.path.lexists(stripped):
+        return True
+    return len(tokens) == 1 and stripped.endswith(".json") and "=" not in stripped
+
+
+def _join_file_path(stripped: str, tokens: Sequence[str]) -> list[str]:
+    """The tokens, with ``file=PATH`` extended over the following tokens when that
+    makes the longest existing path (an edge list's path may contain spaces)."""
+    if not tokens[0].startswith("file="):
+        return list(tokens)
+    ends = [match.end() for match in re.finditer(r"\S+", stripped)]
+    for count in range(len(tokens), 1, -1):
+        if os.path.lexists(stripped[len("file=") : ends[count - 1]]):
+            return [stripped[: ends[count - 1]], *tokens[count:]]
+    return list(tokens)
 
 
 def _only_for(key: str) -> str:
