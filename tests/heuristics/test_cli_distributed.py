@@ -68,7 +68,6 @@ def test_distributed_run_output(mission: Path, capsys: pytest.CaptureFixture[str
 @pytest.mark.parametrize(
     ("argv", "fragment"),
     [
-        pytest.param(["--time-limit", "0"], "--time-limit", id="limit"),
         pytest.param(["--network", "complete", "--order", "random"], "--order", id="order"),
     ],
 )
