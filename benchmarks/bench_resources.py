@@ -5,7 +5,7 @@ Targets:
 * the exact diameter of ``er`` networks: G(5000, 0.002) under 3 s and G(20000, 0.0005)
   under 15 s (the extrema bounding it replaced: 1884 and about 16,500 searches); drawn
   graphs with peripheral fringes (geometric, smallworld) under 1 s;
-* a text edge list read and built into a network at under 16 bytes of peak memory per
+* a text edge list read and built into a network at under 20 bytes of peak memory per
   byte of file (the figure the size check assumes; it was about 60);
 * refusals before any work: a 1 TiB edge list and a GRAPE-S mission whose member table
   needs hundreds of GiB, each refused in under 1 s;
@@ -123,7 +123,7 @@ def edge_list_rows(edges: int, folder: Path) -> list[tuple[str, str, str]]:
     per_byte = float(out[1]) / size
     return [
         (f"edge list {size / 2**20:.0f} MB read+build", f"{float(out[0]):.1f} s", "-"),
-        ("  peak memory per file byte", f"{per_byte:.1f} B", "< 16 B"),
+        ("  peak memory per file byte", f"{per_byte:.1f} B", "< 20 B"),
     ]
 
 

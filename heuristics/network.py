@@ -37,8 +37,7 @@ import json
 import math
 import os
 import re
-from array import array
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property
@@ -57,13 +56,12 @@ from cfopt._jsonio import (
     check_text,
     expect_list,
     expect_object,
-    open_regular_file,
     read_json,
 )
-from cfopt._limits import format_bytes, require_memory
 from cfopt.checks import is_whole
 from cfopt.errors import MissionError, describe, is_unicode, plural
 from cfopt.mission import Mission
+from heuristics._edgelist import EDGE_LIST_MEMORY_PER_BYTE, EdgeTable, read_edge_list
 from heuristics._graphs import bfs_distances
 from heuristics._graphs import diameter as exact_diameter
 
@@ -95,11 +93,6 @@ MAX_DELAY_NS = 2**62
 ER_DRAWS = 100
 #: How many Watts-Strogatz graphs ``smallworld`` draws before giving up.
 SMALLWORLD_TRIES = 100
-#: Memory a text edge list takes, per byte of the file, from reading it to a built
-#: network (measured: a peak of about 12 bytes per byte, ids such as ``r12345``, 1.3
-#: million edges); a file whose size times this exceeds the machine's memory is refused
-#: before it is read.
-EDGE_LIST_MEMORY_PER_BYTE = 16
 
 _TOPOLOGY_PARAMS: Mapping[str, tuple[str, ...]] = {
     "complete": (),
@@ -673,6 +666,9 @@ class NetworkSpec:
     edge_key: str = field(default="edges", compare=False, repr=False)
     #: The line of each edge in a text edge list (for messages).
     edge_lines: Sequence[int] | None = field(default=None, compare=False, repr=False)
+    #: The edges as read from a text edge list (distinct ids and an index table), so
+    #: that :meth:`build` looks each id up once.
+    edge_table: EdgeTable | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.topology not in TOPOLOGIES:
@@ -709,7 +705,9 @@ class NetworkSpec:
                 f"path: must be a non-empty path without line breaks or leading or trailing "
                 f"spaces (write a network JSON file for other paths), got {describe(self.path)}"
             )
-        if not _plain_pairs(self.edges):
+        table = self.edge_table
+        read = table is not None and len(table.index) == len(self.edges)
+        if not read and not _plain_pairs(self.edges):
             object.__setattr__(self, "edges", self._checked_pairs())
 
     def _checked_pairs(self) -> tuple[tuple[str, str], ...]:
@@ -842,7 +840,8 @@ class NetworkSpec:
         fields: dict[str, Any] = {"path": path, "origin": token, "edge_key": ""}
         try:
             if not path.endswith(".json"):
-                fields["edges"], fields["edge_lines"] = _read_text_edges(path)
+                table = read_edge_list(path)
+                fields.update(edges=table.pairs(), edge_lines=table.lines, edge_table=table)
                 return fields
             data, _ = read_json(path, stdin_hint=False)
             if not isinstance(data, dict):
@@ -1105,6 +1104,11 @@ class NetworkSpec:
         an id is unknown, the pass that finds the first one."""
         index = mission.robot_index
         edges = self.edges or ()
+        table = self.edge_table
+        if table is not None:
+            robots = np.array([index.get(rid, -1) for rid in table.names], dtype=np.int64)
+            if (robots >= 0).all():
+                return robots[table.index].reshape(-1, 2)
         try:
             flat = np.fromiter(
                 map(index.__getitem__, itertools.chain.from_iterable(edges)),
@@ -1244,59 +1248,6 @@ def _json_edges(value: Any, place: str) -> tuple[tuple[str, str], ...]:
             raise MissionError(f"{where}: links robot {describe(item[0])} to itself")
         edges.append((item[0], item[1]))
     return tuple(edges)
-
-
-def _read_text_edges(path: str) -> tuple[tuple[tuple[str, str], ...], npt.NDArray[np.int64]]:
-    """The edges of a text edge list and the line of each, read line by line.
-
-    The file's size is checked against the machine's memory first
-    (:data:`EDGE_LIST_MEMORY_PER_BYTE`), so that a list too large is refused unread.
-    """
-    handle, size = open_regular_file(path, path, stdin_hint=False, expected="an edge list")
-    with handle:
-        require_memory(
-            size * EDGE_LIST_MEMORY_PER_BYTE,
-            f"{path}: an edge list of {format_bytes(size)}",
-        )
-        try:
-            return _stream_text_edges(handle, path)
-        except OSError as exc:
-            raise MissionError(f"{path}: cannot read ({exc.strerror or exc})") from None
-
-
-def _stream_text_edges(
-    handle: Iterable[bytes], name: str
-) -> tuple[tuple[tuple[str, str], ...], npt.NDArray[np.int64]]:
-    """Two robot ids per line (blank lines and ``#`` comments skipped), lines numbered
-    as ``str.splitlines`` numbers them; each distinct id is kept once.  O(size)."""
-    ids: dict[str, str] = {}
-    edges: list[tuple[str, str]] = []
-    lines = array("q")
-    number = offset = 0
-    for raw in handle:
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            where = offset + exc.start
-            raise MissionError(f"{name}: not UTF-8 text ({exc.reason} at byte {where})") from None
-        offset += len(raw)
-        for line in text.splitlines():
-            number += 1
-            words = (line.split("#", 1)[0] if "#" in line else line).split()
-            if not words:
-                continue
-            if len(words) != 2:
-                raise MissionError(
-                    f"line {number}: expected two robot ids, got {plural(len(words), 'word')}"
-                )
-            first, second = words
-            if first == second:
-                raise MissionError(f"line {number}: links robot {describe(first)} to itself")
-            edges.append((ids.setdefault(first, first), ids.setdefault(second, second)))
-            lines.append(number)
-    numbers = np.frombuffer(lines, dtype=np.int64) if lines else np.empty(0, dtype=np.int64)
-    numbers.setflags(write=False)
-    return tuple(edges), numbers
 
 
 def _plain_pairs(edges: Any) -> bool:
