@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
@@ -31,10 +32,14 @@ __all__ = [
     "expect_list",
     "expect_object",
     "layout_json",
+    "make_directory",
     "open_regular_file",
+    "output_target",
     "read_json",
     "read_text_file",
+    "shown_path",
     "source_name",
+    "stat_path",
     "write_text",
 ]
 
@@ -144,6 +149,8 @@ def open_regular_file(
     except PermissionError:
         raise MissionError(f"{name}: permission denied") from None
     except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            raise _lookup_error(name, exc) from None
         raise MissionError(f"{name}: cannot read ({exc.strerror or exc})") from None
     except ValueError:  # a NUL character
         raise MissionError(f"{name}: not a file name (it holds a NUL character)") from None
@@ -236,6 +243,48 @@ def read_json(source: Source, *, stdin_hint: bool = True) -> tuple[Any, str]:
     return value, name
 
 
+#: Paths longer than this are shown cut in the middle in messages.
+_SHOWN_LENGTH = 100
+
+
+def shown_path(path: str | os.PathLike[str]) -> str:
+    """A path as a message shows it: one of more than 100 characters is cut in the middle.
+
+    >>> shown_path("results/m.json"), shown_path("x" * 300)[38:]
+    ('results/m.json', 'xx...xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx (300 characters)')
+    """
+    name = os.fspath(path)
+    if len(name) <= _SHOWN_LENGTH:
+        return name
+    return f"{name[:40]}...{name[-40:]} ({len(name)} characters)"
+
+
+def _lookup_error(name: str, exc: OSError) -> MissionError:
+    if exc.errno == errno.ENAMETOOLONG:
+        return MissionError(f"{shown_path(name)}: name too long for the file system")
+    if isinstance(exc, PermissionError):
+        return MissionError(f"{name}: permission denied")
+    return MissionError(f"{name}: cannot look it up ({exc.strerror or exc})")
+
+
+def stat_path(
+    path: str | os.PathLike[str], *, follow_symlinks: bool = True, name: str | None = None
+) -> os.stat_result | None:
+    """What is at ``path``: its ``os.stat`` (``os.lstat`` without ``follow_symlinks``), or
+    ``None`` when nothing is there (or a folder on the way is a file).
+
+    A path that cannot even be looked up (a name too long for the file system, a folder
+    that may not be searched, a loop of symbolic links) is a :class:`MissionError`
+    naming ``name`` (default: the path).
+    """
+    try:
+        return os.stat(path, follow_symlinks=follow_symlinks)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        raise _lookup_error(os.fspath(path) if name is None else name, exc) from None
+
+
 def check_folder(path: str | os.PathLike[str]) -> Path:
     """The rule for every output: the folder an output goes into must exist already.
 
@@ -244,16 +293,11 @@ def check_folder(path: str | os.PathLike[str]) -> Path:
     """
     target = Path(path)
     parent = target.parent
-    if not parent.is_dir():
-        what = "is not a directory" if parent.exists() else "does not exist"
+    info = stat_path(parent, name=os.fspath(path))
+    if info is None or not stat.S_ISDIR(info.st_mode):
+        what = "does not exist" if info is None else "is not a directory"
         raise MissionError(f"{os.fspath(path)}: the folder {os.fspath(parent)!r} {what}")
     return target
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
 
 
 def _exists_message(path: str | os.PathLike[str]) -> MissionError:
@@ -264,31 +308,113 @@ def _exists_message(path: str | os.PathLike[str]) -> MissionError:
     )
 
 
+#: Kinds of existing paths a file output never goes into, even when replacing is allowed.
+_NEVER_WRITTEN = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _is_null_device(info: os.stat_result) -> bool:
+    null = stat_path(os.devnull)
+    return null is not None and os.path.samestat(info, null)
+
+
+def output_target(
+    path: str | os.PathLike[str], *, overwrite: bool, directory: bool = False
+) -> Path | None:
+    """The rule for every output path: where to write ``path``, decided before writing.
+
+    Returns the path to write, or ``None`` for the null device (``/dev/null`` or a
+    symbolic link to it), which is always accepted and needs nothing written.  A path
+    that names nothing yet is accepted when its folder exists.  For a file output
+    (``directory=False``) an existing path is refused (:class:`MissionError`) unless
+    ``overwrite``; a directory, a block or character device other than the null device
+    and a socket are refused even then (a mission is never written into a disk).  With
+    ``overwrite`` a FIFO is written as it is, and a symbolic link to a file has the file
+    it points to replaced (the link stays).  For a report directory (``directory=True``)
+    an existing directory is accepted (its files are checked by the report) and any
+    other existing path is refused.  Symbolic links are judged by what they point to;
+    names too long for the file system are refused with one line.
+    """
+    where = os.fspath(path)
+    target = Path(path)
+    entry = stat_path(target, follow_symlinks=False)
+    if entry is None:
+        check_folder(path)
+        return target
+    linked = stat.S_ISLNK(entry.st_mode)
+    info = stat_path(target) if linked else entry
+    if directory:
+        if info is None or not stat.S_ISDIR(info.st_mode):
+            raise MissionError(f"{where}: exists and is not a directory")
+        return target
+    if info is not None and _is_null_device(info):
+        return None
+    for test, kind in _NEVER_WRITTEN:
+        if info is not None and test(info.st_mode):
+            raise MissionError(
+                f"{where}: is {kind}, not a file cfopt may write (give a file name, "
+                "or /dev/null to discard the output)"
+            )
+    if not overwrite:
+        raise _exists_message(path)
+    if linked and info is not None and stat.S_ISREG(info.st_mode):
+        return Path(os.path.realpath(target))
+    return target
+
+
+def make_directory(path: str | os.PathLike[str]) -> bool:
+    """Create the directory ``path`` (its folder must exist); ``True`` if it was created,
+    ``False`` if it was there already.  A failure is a :class:`MissionError` naming it."""
+    where = os.fspath(path)
+    try:
+        os.mkdir(path)
+    except FileExistsError:
+        info = stat_path(path)
+        if info is None or not stat.S_ISDIR(info.st_mode):
+            raise MissionError(f"{where}: exists and is not a directory") from None
+        return False
+    except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            raise _lookup_error(where, exc) from None
+        raise MissionError(
+            f"{where}: cannot create the directory ({exc.strerror or exc})"
+        ) from None
+    return True
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def write_text(text: str, path: str | os.PathLike[str], *, overwrite: bool) -> None:
     """Write UTF-8 text to ``path`` atomically; an existing file is replaced only when asked.
 
-    The text goes to a temporary file in the same folder, is flushed to disk, and is then
-    renamed into place, so ``path`` holds either its old content or the whole new one,
-    never a part (a full disk or a crash leaves the old file as it was).  Without
-    ``overwrite`` the file is linked into place, which fails if it appeared meanwhile.
-    Existing paths that are not regular files (``/dev/null``, ``/dev/stdout``, a FIFO) hold
-    nothing to lose: they are written directly, without ``overwrite``.
+    Where it may go is :func:`output_target`'s rule: the null device is accepted and
+    nothing is written to it; a FIFO (with ``overwrite``) is written directly.  Otherwise
+    the text goes to a temporary file in the same folder (a short name of its own, so
+    that every valid file name works), is flushed to disk, and is then renamed into
+    place, so ``path`` holds either its old content or the whole new one, never a part
+    (a full disk or a crash leaves the old file as it was).  Without ``overwrite`` the
+    file is linked into place, which fails if it appeared meanwhile.
     """
     data = text.encode("utf-8")
-    target = check_folder(path)
     where = os.fspath(path)
-    if target.is_dir():
-        raise MissionError(f"{where}: is a directory")
-    if target.exists() and not target.is_file():  # /dev/null, /dev/stdout, a FIFO: no file to lose
+    target = output_target(path, overwrite=overwrite)
+    if target is None:
+        return
+    existing = stat_path(target)
+    if existing is not None and stat.S_ISFIFO(existing.st_mode):
         _write_directly(data, target, where)
         return
-    if target.exists() and not overwrite:
-        raise _exists_message(path)
-    mode = (target.stat().st_mode & 0o7777) if target.exists() else 0o666 & ~_umask()
+    mode = (existing.st_mode & 0o7777) if existing is not None else 0o666 & ~_umask()
     try:
-        fd, temporary = tempfile.mkstemp(
-            dir=target.parent, prefix=f".{target.name}.", suffix=".part"
-        )
+        fd, temporary = tempfile.mkstemp(dir=target.parent, prefix=".cfopt-", suffix=".part")
     except PermissionError:
         raise MissionError(f"{where}: permission denied") from None
     except OSError as exc:
@@ -305,7 +431,7 @@ def write_text(text: str, path: str | os.PathLike[str], *, overwrite: bool) -> N
         raise _exists_message(path) from None
     except OSError as exc:
         _remove(temporary)
-        kept = "the existing file is unchanged" if target.exists() else "nothing was written"
+        kept = "the existing file is unchanged" if existing is not None else "nothing was written"
         raise MissionError(f"{where}: cannot write ({exc.strerror or exc}); {kept}") from None
     except BaseException:
         _remove(temporary)

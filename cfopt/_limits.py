@@ -1,4 +1,5 @@
-"""What fits on this machine: sizes that cannot fit in memory are refused up front.
+"""What fits on this machine: sizes that cannot fit in memory are refused up front, and
+so are time limits the clocks cannot hold (:data:`MAX_TIME_LIMIT`).
 
 A request whose arrays would not fit in the machine's physical memory is bad input, not
 a crash: it is refused with a :class:`~cfopt.MissionError` that says how much memory it
@@ -11,7 +12,12 @@ import os
 
 from cfopt.errors import MissionError
 
-__all__ = ["format_bytes", "physical_memory", "require_memory"]
+__all__ = ["MAX_TIME_LIMIT", "format_bytes", "physical_memory", "require_memory"]
+
+#: The longest time limit an exact solve takes, in seconds (about 31 years; the
+#: operating system's timers end not far beyond, from about 9.2e9 s).  No limit at all
+#: is ``None`` in the Python API.
+MAX_TIME_LIMIT = 1e9
 
 #: Used when the operating system does not say how much memory there is.
 _FALLBACK_MEMORY = 2**34

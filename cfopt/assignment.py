@@ -200,7 +200,8 @@ class Assignment:
         *,
         overwrite: bool = False,
     ) -> str:
-        """The assignment as JSON text (one entry per line); written to ``path`` if given."""
+        """The assignment as JSON text (one entry per line); written to ``path`` if given
+        (as :meth:`Mission.to_json` writes)."""
         check_output(path, overwrite)
         text = layout_json(self.to_dict(mission))
         if path is not None:

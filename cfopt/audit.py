@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cfopt._jsonio import check_folder
+from cfopt._jsonio import make_directory, output_target
 from cfopt._progress import Progress
 from cfopt.errors import MissionError, plural
 from cfopt.report import Report, check_free, load_trials, report_names_for, write_report
@@ -118,14 +118,12 @@ def _claim_ids() -> list[str]:
 
 
 def _check_directory(directory: Path, files: list[str], force: bool) -> None:
-    check_folder(directory)
-    if directory.exists() and not directory.is_dir():
-        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
+    output_target(directory, overwrite=force, directory=True)
     if force:
         return
     check_free(directory, files)
     cx_dir = directory / COUNTEREXAMPLES
-    if cx_dir.is_dir() and any(cx_dir.iterdir()):
+    if os.path.isdir(cx_dir) and any(cx_dir.iterdir()):
         raise MissionError(
             f"{os.fspath(cx_dir)}: already holds counterexamples; pass force=True to replace "
             "them, or choose another directory",
@@ -253,7 +251,7 @@ def run_audit(
     report_files = [] if claims_only else report_names_for(cells, claims=True)
     _check_directory(directory, report_files, force)
     progress = Progress.coerce(progress)
-    directory.mkdir(exist_ok=True)
+    make_directory(directory)
     store = directory / AUDIT_STORE
     sweep = None if claims_only else Sweep(cells=cells, missions=missions)
     with store_lock(store, "cfopt audit"):

@@ -38,7 +38,7 @@ _SHOWN = 10
 Handler = Callable[[argparse.Namespace], int]
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
     """argparse with the house error convention: one ``error:`` line, exit 2."""
 
     def error(self, message: str) -> NoReturn:
@@ -74,6 +74,46 @@ def _positive_number(text: str) -> float:
     return value
 
 
+def time_limit_type(text: str) -> float:
+    """``--time-limit SEC``: a finite number of seconds > 0, at most 1e9 (about 31 years;
+    a distributed run's own ceiling, 8796 simulated seconds, is the simulator's check)."""
+    from cfopt._limits import MAX_TIME_LIMIT
+
+    value = _positive_number(text)
+    if value > MAX_TIME_LIMIT:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_TIME_LIMIT:g} seconds (about 31 years), got {text!r}"
+        )
+    return value
+
+
+def _path_type(what: str, *, dash: bool) -> Callable[[str], str]:
+    """A path option: never empty; ``-`` (stdin or stdout) only where ``dash`` allows it."""
+
+    def parse(text: str) -> str:
+        if not text:
+            raise argparse.ArgumentTypeError(f"must name {what}, got an empty path")
+        if text == "-" and not dash:
+            raise argparse.ArgumentTypeError(
+                f"must name {what}; '-' (stdin or stdout) cannot be one"
+            )
+        return text
+
+    return parse
+
+
+_OUTPUT_FILE = _path_type("a file", dash=True)
+_REPORT_DIRECTORY = _path_type("a directory (a report is a folder of files)", dash=False)
+_STORE_FILE = _path_type("an SQLite file (the result store)", dash=False)
+#: ``--force`` for ``-o FILE``: the rule every file output follows.
+_FORCE_FILE_HELP = (
+    "replace FILE if it exists (atomically: a temporary file beside it is renamed into "
+    "place); a directory or a device other than /dev/null is refused even so"
+)
+#: ``--force`` for ``-o DIR``.
+_FORCE_DIRECTORY_HELP = "replace the report files already in DIR (its other files are left alone)"
+
+
 # ------------------------------------------------------------------------ helpers
 def load_mission(path: str) -> Mission:
     """Load a mission from a path, or from standard input for ``-``."""
@@ -105,12 +145,14 @@ def _add_output_options(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "-o",
         "--output",
+        type=_OUTPUT_FILE,
         default=None,
         metavar="FILE",
         help="also write the assignment to FILE (cfopt.assignment/1, what 'cfopt check' "
-        "reads); '-' prints only the assignment JSON on stdout and the summary on stderr",
+        "reads; its folder must exist; /dev/null discards it); '-' prints only the "
+        "assignment JSON on stdout and the summary on stderr",
     )
-    sub.add_argument("--force", action="store_true", help="replace FILE if it exists")
+    sub.add_argument("--force", action="store_true", help=_FORCE_FILE_HELP)
 
 
 def _print_result(summary: list[str], assignment_json: str, args: argparse.Namespace) -> None:
@@ -215,11 +257,13 @@ def _add_generate(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
         "-o",
         "--output",
+        type=_OUTPUT_FILE,
         default="-",
         metavar="FILE",
-        help="where to write the mission JSON ('-' = stdout, the default); its folder must exist",
+        help="where to write the mission JSON ('-' = stdout, the default; /dev/null "
+        "discards it); its folder must exist",
     )
-    sub.add_argument("--force", action="store_true", help="replace FILE if it exists")
+    sub.add_argument("--force", action="store_true", help=_FORCE_FILE_HELP)
 
     def run(args: argparse.Namespace) -> int:
         mission = generate_mission(
@@ -277,12 +321,13 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
         "-o",
         "--output",
+        type=_REPORT_DIRECTORY,
         default="cfopt-audit",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
         "cfopt-audit); its trials.sqlite lets an interrupted audit resume",
     )
-    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     _add_workers_option(sub)
     _add_quiet_option(sub)
 
@@ -332,6 +377,7 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
         "-o",
         "--output",
+        type=_REPORT_DIRECTORY,
         default="cfopt-reproduce",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
@@ -339,11 +385,12 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
     )
     sub.add_argument(
         "--store",
+        type=_STORE_FILE,
         default=None,
         metavar="FILE",
         help="SQLite result store, created or resumed (default: DIR/trials.sqlite)",
     )
-    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     _add_workers_option(sub)
     _add_scheduler_option(sub)
@@ -396,12 +443,12 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
     sub.add_argument(
         "--time-limit",
-        type=_positive_number,
+        type=time_limit_type,
         default=None,
         metavar="SEC",
         help="seconds the whole solve may take (model building included, within 0.25 s); "
         "then the best assignment found and the proven bound are reported with status "
-        "time_limit (default: no limit)",
+        "time_limit (default: no limit; at most 1e9 s)",
     )
     sub.add_argument(
         "--formulation",
@@ -416,7 +463,7 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
         from cfopt.exact import solve_exact
 
         m = load_mission(args.mission)
-        _check_output_free(args)
+        check_output_free(args)
         result = solve_exact(m, time_limit=args.time_limit, formulation=args.formulation)
         assignment_json = result.assignment.to_json(m)
         _save_assignment(assignment_json, args)
@@ -488,12 +535,13 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
     )
     sub.add_argument(
         "--time-limit",
-        type=_positive_number,
+        type=time_limit_type,
         default=None,
         metavar="SEC",
         help="wall-clock seconds after which a centralized run stops with the partition "
         "reached (status time_limit; default: no limit); with --network simulated seconds "
-        "after which the run is cut (default 3600; real seconds with --backend mpi)",
+        "after which the run is cut (default 3600, at most 8796; real seconds with "
+        "--backend mpi)",
     )
     sub.add_argument(
         "--backend",
@@ -523,7 +571,7 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         if args.ranks is not None and args.backend != "mpi":
             raise MissionError("--ranks: only with --backend mpi")
         m = load_mission(args.mission)
-        _check_output_free(args)
+        check_output_free(args)
         options = _auction_options(args)
         model = _model_options(args)
         if distributed:
@@ -676,17 +724,14 @@ def _transport_summary(transport: Any) -> list[str]:
     ]
 
 
-def _check_output_free(args: argparse.Namespace) -> None:
-    """Refuse an existing ``-o FILE`` before the work, not after it."""
-    from cfopt._jsonio import check_folder
+def check_output_free(args: argparse.Namespace) -> None:
+    """Refuse a ``-o FILE`` that will not be written, before the work rather than after
+    it (the rule is :func:`cfopt._jsonio.output_target`'s, which the write applies
+    again)."""
+    from cfopt._jsonio import output_target
 
-    if args.output in (None, "-"):
-        return
-    target = check_folder(args.output)
-    if target.is_dir():
-        raise MissionError(f"{args.output}: is a directory")
-    if target.exists() and not args.force:
-        raise MissionError(f"{args.output}: already exists (pass --force to replace it)")
+    if args.output not in (None, "-"):
+        output_target(args.output, overwrite=args.force)
 
 
 def load_assignment(mission: Mission, path: str) -> Any:
@@ -881,16 +926,17 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
     )
     sub.add_argument(
         "--time-limit",
-        type=_positive_number,
+        type=time_limit_type,
         default=60.0,
         metavar="SEC",
         help="seconds per exact solve, model building included; an optimum not proven by "
-        "then is marked (default 60)",
+        "then is marked (default 60, at most 1e9)",
     )
     _add_workers_option(sub)
     _add_scheduler_option(sub)
     sub.add_argument(
         "--store",
+        type=_STORE_FILE,
         default="cfopt-sweep.sqlite",
         metavar="FILE",
         help="SQLite result store, created or resumed (default: cfopt-sweep.sqlite); its "
@@ -970,16 +1016,19 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
 
 
 def _add_report(sub: argparse.ArgumentParser) -> Handler:
-    sub.add_argument("store", metavar="STORE", help="SQLite result store of cfopt sweep")
+    sub.add_argument(
+        "store", type=_STORE_FILE, metavar="STORE", help="SQLite result store of cfopt sweep"
+    )
     sub.add_argument(
         "-o",
         "--output",
+        type=_REPORT_DIRECTORY,
         default="cfopt-report",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
         "cfopt-report)",
     )
-    sub.add_argument("--force", action="store_true", help="replace the report files already in DIR")
+    sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     sub.add_argument(
         "--code-version",
         default=None,
@@ -1026,7 +1075,7 @@ _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] =
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``cfopt`` argument parser with every subcommand."""
-    parser = _Parser(
+    parser = Parser(
         prog="cfopt",
         description="Optimisation-grounded verification of coalition formation for robot "
         "collectives. Exit codes: 0 success, 2 bad input or usage, 1 internal error.",

@@ -54,6 +54,7 @@ from cfopt._exact_groups import (
     split_class_flow,
     task_groups,
 )
+from cfopt._limits import MAX_TIME_LIMIT  # the longest time limit solve_exact takes
 from cfopt.assignment import UNASSIGNED, Assignment
 from cfopt.checks import require_assignment, require_choice, require_mission, require_number
 from cfopt.errors import MissionTypeError
@@ -73,9 +74,6 @@ __all__ = [
 
 #: The formulations :func:`solve_exact` accepts.
 FORMULATIONS = ("aggregated", "assignment")
-#: The longest time limit :func:`solve_exact` takes, in seconds (about 31 years; the
-#: operating system's timers end not far beyond).
-MAX_TIME_LIMIT = 1e9
 
 #: :func:`solve_exact` returns within ``time_limit`` plus this many seconds (see its
 #: Notes for the exceptions: a loaded machine, models of a million variables or more).

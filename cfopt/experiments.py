@@ -57,8 +57,8 @@ from pathlib import Path
 from typing import Any
 
 from cfopt import __version__
-from cfopt._jsonio import read_json, read_text_file
-from cfopt._limits import require_memory
+from cfopt._jsonio import read_json, read_text_file, stat_path
+from cfopt._limits import MAX_TIME_LIMIT, require_memory
 from cfopt._progress import Progress
 from cfopt._workers import default_workers, make_executor, stop_executor
 from cfopt.checks import require_int, require_number
@@ -299,7 +299,7 @@ def resolve_grid(
     """
     if grid in GRIDS:
         return named_grid(grid, loads), GRIDS[grid][1]
-    if not grid.lower().endswith((".toml", ".json")) and not Path(grid).exists():
+    if not grid.lower().endswith((".toml", ".json")) and stat_path(grid) is None:
         raise MissionError(
             f"grid: unknown grid {grid!r}: give one of {', '.join(GRIDS)}, "
             "or a .toml/.json grid file",
@@ -619,8 +619,8 @@ class Sweep:
         distributed agents (:data:`heuristics.simulate.DISTRIBUTED`).
     base_seed : int, default 0
     time_limit : float or None, default 60
-        Seconds per exact solve (HiGHS); an optimum not proven by then is marked
-        ``time_limit`` in the trials.
+        Seconds per exact solve (HiGHS), at most ``1e9`` (``None``: no limit); an optimum
+        not proven by then is marked ``time_limit`` in the trials.
     """
 
     cells: tuple[GridCell, ...]
@@ -650,6 +650,7 @@ class Sweep:
                 "time_limit",
                 self.time_limit,
                 above=0,
+                maximum=MAX_TIME_LIMIT,
                 what="a number of seconds",
                 or_none=True,
                 flag=True,

@@ -312,7 +312,8 @@ class Mission:
         """The mission as JSON text, one robot or task per line; written to ``path`` if given.
 
         The text is a pure function of the mission (same mission, same bytes).  An
-        existing file is replaced only with ``overwrite=True``.
+        existing file is replaced only with ``overwrite=True``; ``/dev/null`` takes
+        nothing, and a directory or a device is never written (``MissionError``).
         """
         check_output(path, overwrite)
         text = layout_json(self.to_dict())

@@ -20,18 +20,20 @@ from cfopt import MissionError
 from cfopt.cli import (
     EXIT_BAD_INPUT,
     EXIT_SIGINT,
-    _check_output_free,
+    Parser,
     _error,
+    check_output_free,
     finish_run,
     load_mission,
     reserve_stdout,
+    time_limit_type,
 )
 
 __all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="python -m cfopt.mpi",
         description="One MPI rank of a distributed run (start it with mpiexec -n K).",
     )
@@ -44,7 +46,11 @@ def _parser() -> argparse.ArgumentParser:
         "--seed", type=int, default=None, metavar="X", help="random seed (default: fresh)"
     )
     parser.add_argument(
-        "--time-limit", type=float, default=None, metavar="SEC", help="real seconds (3600)"
+        "--time-limit",
+        type=time_limit_type,
+        default=None,
+        metavar="SEC",
+        help="real seconds (default 3600, at most 8796)",
     )
     parser.add_argument("--quiet-factor", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--reward", default="paper", help=argparse.SUPPRESS)
@@ -90,13 +96,13 @@ def _rank_main(argv: Sequence[str] | None) -> int:
     args = _parser().parse_args(argv)
     try:
         mission = load_mission(args.mission)
-        _check_output_free(args)
+        check_output_free(args)
         run = run_ranks(
             mission,
             args.algorithm,
             args.network,
             seed=args.seed if args.entropy is None else np.random.default_rng(args.entropy),
-            time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
+            time_limit=DEFAULT_TIME_LIMIT if args.time_limit is None else args.time_limit,
             quiet_factor=args.quiet_factor or QUIET_FACTOR,
             reward=args.reward,
         )

@@ -42,11 +42,12 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from stat import S_ISDIR
 from typing import Any
 
 import numpy as np
 
-from cfopt._jsonio import check_folder
+from cfopt._jsonio import make_directory, output_target, stat_path
 from cfopt.errors import MissionError, plural
 from cfopt.store import EXACT, ResultStore, Trial
 
@@ -991,9 +992,12 @@ def planned_files(trials: Sequence[Trial], claims: Sequence[Any] | None = None) 
 def check_free(directory: str | os.PathLike[str], names: Iterable[str]) -> None:
     """Raise :class:`cfopt.MissionError` if any of ``names`` exists in ``directory``."""
     directory = Path(directory)
-    if directory.exists() and not directory.is_dir():
+    info = stat_path(directory)
+    if info is None:
+        return
+    if not S_ISDIR(info.st_mode):
         raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
-    taken = [n for n in names if (directory / n).exists()]
+    taken = [n for n in names if stat_path(directory / n, follow_symlinks=False) is not None]
     if taken:
         shown = ", ".join(taken[:3]) + (f" and {len(taken) - 3} more" if len(taken) > 3 else "")
         where = os.fspath(directory)
@@ -1050,13 +1054,10 @@ def write_report(
     trials = label_variants(trials)
     directory = Path(directory)
     names = planned_files(trials, claims)
-    check_folder(directory)
-    if directory.exists() and not directory.is_dir():
-        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
+    output_target(directory, overwrite=force, directory=True)
     if not force:
         check_free(directory, names)
-    created = not directory.exists()
-    directory.mkdir(exist_ok=True)
+    created = make_directory(directory)
     with _staging(directory, created) as stage:
         _write_files(
             trials, stage, version=version, claims=claims, claim_files=claim_files,

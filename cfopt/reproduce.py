@@ -46,10 +46,11 @@ from typing import Any
 
 import numpy as np
 
+from cfopt._jsonio import make_directory, output_target
 from cfopt._progress import Progress
 from cfopt.errors import MissionError, plural
 from cfopt.paper import FIGURES, Figure
-from cfopt.store import EXACT, Trial
+from cfopt.store import EXACT, Trial, check_store_path
 
 __all__ = [
     "AGREE",
@@ -181,12 +182,13 @@ def run_reproduce(
     directory = Path(directory)
     if missions < 1:
         raise MissionError(f"--missions: must be at least 1, got {missions}")
-    if directory.exists() and not directory.is_dir():
-        raise MissionError(f"{os.fspath(directory)}: exists and is not a directory")
-    if directory.exists() and not force:
+    output_target(directory, overwrite=force, directory=True)
+    if not force:
         check_free(directory, REPRODUCTION_FILES)
+    if store is not None:
+        check_store_path(store)  # before the directory is created
     progress = Progress.coerce(progress)
-    directory.mkdir(exist_ok=True)
+    make_directory(directory)
     store = Path(store) if store is not None else directory / REPRODUCE_STORE
     sweeps = reproduction_sweeps(missions, distributed=distributed)
     version = code_version()  # one version for both grids, read once
@@ -960,8 +962,7 @@ def write_reproduction(
     directory = Path(directory)
     if not force:
         check_free(directory, REPRODUCTION_FILES)
-    created = not directory.exists()
-    directory.mkdir(exist_ok=True)
+    created = make_directory(directory)
     trials = [t for t in trials if t.algorithm != EXACT]
     with _staging(directory, created) as stage:
         header, rows = comparison_table(comparisons)

@@ -16,17 +16,18 @@ import json
 import math
 import os
 import sqlite3
+import stat
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from cfopt._jsonio import check_folder
+from cfopt._jsonio import check_folder, shown_path, stat_path
 from cfopt.checks import is_whole
 from cfopt.errors import MissionError, describe
 
-__all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "store_lock"]
+__all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "check_store_path", "store_lock"]
 
 #: The algorithm name of the exact solve's trials.
 EXACT = "exact"
@@ -336,15 +337,8 @@ class ResultStore:
     def __init__(self, path: str | os.PathLike[str], *, create: bool = True) -> None:
         self.path = Path(path)
         self._name = name = os.fspath(path)
-        if self.path.is_dir():
-            raise MissionError(f"{name}: is a directory, not a result store")
-        if not self.path.exists():
-            if not create:
-                raise MissionError(f"{name}: no such result store")
-            check_folder(path)
-        elif not self.path.is_file():
-            raise MissionError(f"{name}: not a regular file, not a result store")
-        elif self.path.stat().st_size > 0:
+        info = check_store_path(path, create=create)
+        if info is not None and info.st_size > 0:
             with self.path.open("rb") as handle:
                 if handle.read(len(_SQLITE_MAGIC)) != _SQLITE_MAGIC:
                     raise MissionError(
@@ -570,7 +564,48 @@ class StoreBusy(MissionError):
 
 
 def _lock_path(store: Path) -> Path:
-    return store.with_name(store.name + ".lock")
+    return store.with_name(store.name + _LOCK_SUFFIX)
+
+
+_LOCK_SUFFIX = ".lock"
+#: The longest suffix of a file kept beside a store (SQLite's rollback journal).
+_SIDECAR_SUFFIX = "-journal"
+
+
+def check_store_path(path: str | os.PathLike[str], *, create: bool = True) -> os.stat_result | None:
+    """What a store path must be, checked before anything is created beside it.
+
+    An existing regular file (its ``os.stat`` is returned), or with ``create`` nothing
+    yet in an existing folder (``None``).  A directory, a device or a FIFO is refused
+    (:class:`cfopt.MissionError`), and so is a name too long to leave room for the files
+    kept beside the store (SQLite's ``-journal``, ``-wal`` and ``-shm``, cfopt's
+    ``.lock``).
+    """
+    name = os.fspath(path)
+    info = stat_path(path)
+    if info is None:
+        if not create:
+            raise MissionError(f"{name}: no such result store")
+        check_folder(path)
+    elif stat.S_ISDIR(info.st_mode):
+        raise MissionError(f"{name}: is a directory, not a result store")
+    elif not stat.S_ISREG(info.st_mode):
+        raise MissionError(f"{name}: not a regular file, not a result store")
+    _check_sidecar_names(Path(path))
+    return info
+
+
+def _check_sidecar_names(store: Path) -> None:
+    try:
+        longest = os.pathconf(store.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        longest = 255
+    room = longest - len(_SIDECAR_SUFFIX)
+    if len(os.fsencode(store.name)) > room:
+        raise MissionError(
+            f"{shown_path(store)}: the name is too long for a result store (at most {room} "
+            f"bytes here: SQLite keeps files named after it with '{_SIDECAR_SUFFIX}' added)"
+        )
 
 
 @contextlib.contextmanager
@@ -578,7 +613,8 @@ def store_lock(path: str | os.PathLike[str], purpose: str = "cfopt sweep") -> It
     """Hold the store for one writer; a second one gets :class:`StoreBusy` at once.
 
     The lock is an advisory ``flock`` on ``<store>.lock`` beside the store (created,
-    holding the holder's process id, and removed on release).  The operating system
+    holding the holder's process id, and removed on release), taken only once the
+    store's path passes :func:`check_store_path`.  The operating system
     drops it when the holder dies, even by SIGKILL, so a killed sweep never leaves the
     store locked.  Without ``fcntl`` (Windows) there is no lock.
     """
@@ -587,6 +623,7 @@ def store_lock(path: str | os.PathLike[str], purpose: str = "cfopt sweep") -> It
     except ImportError:  # pragma: no cover - not on POSIX
         yield
         return
+    check_store_path(path)
     store = Path(path)
     lock = _lock_path(store)
     while True:

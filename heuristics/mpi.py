@@ -254,7 +254,8 @@ def mpi_run(
     seed : None or int
         Topology, clocks and the injected draws flow from it (``None``: fresh).
     time_limit : float, default 3600
-        Seconds (real; logical with ``sync=true``) after which the run is cut.
+        Seconds (real; logical with ``sync=true``) after which the run is cut, at most
+        :data:`heuristics.simulate.MAX_TIME_LIMIT` (8796).
     quiet_factor, reward
         As :func:`heuristics.simulate`.
 

@@ -85,6 +85,7 @@ from heuristics.network import Clocks, Links, Network, NetworkSpec
 
 __all__ = [
     "DEFAULT_TIME_LIMIT",
+    "MAX_TIME_LIMIT",
     "QUIET_FACTOR",
     "NetworkReport",
     "network_spec",
@@ -100,6 +101,9 @@ QUIET_FACTOR = 2
 DISTRIBUTED = ("grape-s", "pair-grape-s", "sda", "pair-grape-s-chain", "grape-s-select")
 _ID_BITS = 20  # a key (r, time, id) packs time and id into one int64: time * 2**20 + id + 1
 _MAX_TIME_NS = (2**63 - 1) >> _ID_BITS
+#: The longest ``time_limit`` a run takes, in seconds (8796: event times are packed into
+#: 64-bit keys).
+MAX_TIME_LIMIT = _MAX_TIME_NS // 10**9
 _NEVER = np.iinfo(np.int64).max
 _TICK, _HOP, _WAKE = 0, 1, 2
 
@@ -210,7 +214,8 @@ def simulate(
     seed : None, int or numpy.random.Generator
         Everything random (placement, clocks, latencies, losses) flows from it.
     time_limit : float, default 3600
-        Simulated seconds after which the run is cut.
+        Simulated seconds after which the run is cut, at most :data:`MAX_TIME_LIMIT`
+        (8796).
     quiet_factor : int, default 2
         ``K``: robots stop after ``K * d_G`` ticks without a change.
     reward : {"paper", "utility"}
@@ -286,10 +291,10 @@ def run_limits(time_limit: Any, quiet_factor: Any) -> tuple[int, int]:
     """
     scaled = 1e9 * require_number("time_limit", time_limit, above=0, what="a number of seconds")
     if scaled > _MAX_TIME_NS + 1 or round(scaled) > _MAX_TIME_NS:  # no round() of inf
-        raise MissionError(
-            f"time_limit: at most {_MAX_TIME_NS / 1e9:.0f} simulated seconds, got {time_limit!r}"
-        )
-    return round(scaled), require_int("quiet_factor", quiet_factor, minimum=1)
+        problem = f"at most {MAX_TIME_LIMIT} simulated seconds, got {time_limit!r}"
+        raise MissionError(f"time_limit: {problem}", cli=f"--time-limit: {problem}")
+    # never 0 ns: a limit > 0 s, as the ranks of an MPI run are given it back in seconds
+    return max(round(scaled), 1), require_int("quiet_factor", quiet_factor, minimum=1)
 
 
 def _packed(key: tuple[int, int, int]) -> tuple[int, int]:

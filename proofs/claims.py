@@ -1137,7 +1137,7 @@ def write_counterexamples(
     first one; nothing is written then); each file is written atomically.  ``directory``
     is created if missing (its parent must exist).  Returns the paths written.
     """
-    from cfopt._jsonio import check_folder, write_text
+    from cfopt._jsonio import check_folder, make_directory, stat_path, write_text
 
     directory = Path(directory)
     plan: list[tuple[Path, str]] = []
@@ -1156,14 +1156,14 @@ def write_counterexamples(
             plan.append((directory / f"{v.claim_id}.network.json", spec.to_json()))
     if not overwrite:
         for path, _ in plan:
-            if path.exists():
+            if stat_path(path, follow_symlinks=False) is not None:
                 raise MissionError(
                     f"{path}: exists (use overwrite=True to replace it)",
                     cli=f"{path}: exists (pass --force to replace it)",
                 )
     if plan:
         check_folder(directory)
-        directory.mkdir(exist_ok=True)
+        make_directory(directory)
     for path, text in plan:
         write_text(text, path, overwrite=overwrite)
     return [path for path, _ in plan]
