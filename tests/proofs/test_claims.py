@@ -12,16 +12,8 @@ import heuristics
 import proofs
 from cfopt import Assignment, Mission
 from cfopt.cli import main
-from proofs.claims import (
-    CLAIMS,
-    Counterexample,
-    Verdict,
-    VerdictKind,
-    audit_claims,
-    format_verdict_table,
-    small_scope,
-    write_counterexamples,
-)
+from proofs.claimkit import Counterexample, Scope, Verdict, VerdictKind, small_scope
+from proofs.claims import CLAIMS, audit_claims, format_verdict_table, write_counterexamples
 
 BUDGET = 4  # grid missions per claim (the search draws 4x as many)
 
