@@ -115,6 +115,7 @@ import numpy as np
 from cfopt import Assignment, GridCell, Mission, MissionError, generate_mission, paper_grid
 from cfopt.checks import require_int
 from proofs.scaling import Fit, fit_rungs, ladder, ladder_mission
+from proofs.stability import nash_violations
 
 __all__ = [
     "ACHIEVABLE_FAMILY",
@@ -145,6 +146,8 @@ __all__ = [
     "achievable",
     "achievable_small_scope",
     "bound_runner",
+    "capped_nash_claim",
+    "capped_nash_stable",
     "exponent_verdict",
     "format_number",
     "generated_missions",
@@ -681,6 +684,32 @@ class PropertyCheck:
         return state["drawn"], out.failure
 
 
+def capped_nash_stable(algorithm: str, subject: str) -> Evaluator:
+    """A ready-made property: ``algorithm``'s partition (index order, seed 0) is Nash
+    stable under capped moves (:func:`proofs.nash_violations` with ``capped=True``).
+
+    The gap is the number of violations; the tallies count ``"capped not Nash stable"``
+    and ``"uncapped not Nash stable"``; a failure's detail reads ``"<subject> is not Nash
+    stable (capped moves): <the first deviation>"``.
+    """
+
+    def evaluate(claim: Claim, m: Mission) -> Evaluation:
+        a = claim.run(algorithm, m, seed=0, order="index").assignment
+        capped = nash_violations(m, a, capped=True)
+        tallies = ("uncapped not Nash stable",) if nash_violations(m, a) else ()
+        if not capped:
+            return Evaluation(None, 0.0, tallies)
+        more = f" and {len(capped) - 1} more" if len(capped) > 1 else ""
+        detail = f"{subject} is not Nash stable (capped moves): {capped[0].describe(m)}{more}"
+        return Evaluation(
+            Counterexample(m, a, algorithm, detail),
+            float(len(capped)),
+            (*tallies, "capped not Nash stable"),
+        )
+
+    return evaluate
+
+
 def property_claim(
     id: str,
     statement: str,
@@ -724,6 +753,31 @@ def property_claim(
         )
     check = PropertyCheck(evaluate, cells, strategy, summary, exhaustive, sweep)
     return Claim(id, statement, family, algorithms, check, scope)
+
+
+def capped_nash_claim(
+    id: str, statement: str, algorithm: str, *, subject: str, note: str = ""
+) -> Claim:
+    """A ready-made claim: ``algorithm`` ends Nash stable under capped moves on any mission.
+
+    Checked (:func:`capped_nash_stable`) on the seed's grid cells with n = 100 (all
+    compositions), the seed-family sweep, hypothesis-drawn missions of up to 8 robots, 4
+    tasks, 4 services and, when the search finds nothing, the whole :func:`small_scope`;
+    the family text is :data:`ANY_FAMILY` and :data:`SMALL_SCOPE_FAMILY`, then ``note``.
+    """
+    return property_claim(
+        id,
+        statement,
+        ANY_FAMILY + SMALL_SCOPE_FAMILY + note,
+        (algorithm,),
+        capped_nash_stable(algorithm, subject),
+        scope=Scope.GENERALISATION,
+        cells=grid_cells(ALL_COMPOSITIONS),
+        strategy=structural_missions(achievable=None),
+        summary=tally_summary("capped not Nash stable", "uncapped not Nash stable"),
+        exhaustive=small_scope,
+        sweep=ALL_COMPOSITIONS,
+    )
 
 
 # ------------------------------------------------------------------- families

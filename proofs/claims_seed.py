@@ -37,6 +37,7 @@ from proofs.claimkit import (
     ScalingPart,
     Scope,
     bound_runner,
+    capped_nash_claim,
     exponent_verdict,
     generated_missions,
     grid_cells,
@@ -62,25 +63,6 @@ LADDER_FAMILY = (
 
 
 # ---------------------------------------------------------- the properties
-def _lemma1(claim: Claim, m: Mission) -> Evaluation:
-    run = claim.run("pair-grape-s", m, seed=0, order="index")
-    a = run.assignment
-    capped = nash_violations(m, a, capped=True)
-    uncapped = nash_violations(m, a)
-    tallies = ("uncapped not Nash stable",) if uncapped else ()
-    if not capped:
-        return Evaluation(None, 0.0, tallies)
-    detail = (
-        f"Pair-GRAPE-S's partition is not Nash stable (capped moves): "
-        f"{capped[0].describe(m)}" + (f" and {len(capped) - 1} more" if len(capped) > 1 else "")
-    )
-    return Evaluation(
-        Counterexample(m, a, "pair-grape-s", detail),
-        float(len(capped)),
-        (*tallies, "capped not Nash stable"),
-    )
-
-
 def _theorem1(claim: Claim, m: Mission) -> Evaluation:
     run = claim.run("pair-grape-s", m, seed=0, order="index")
     a = run.assignment
@@ -220,22 +202,14 @@ def seed_claims() -> list[Claim]:
     """The seed's centralized claims, in the audit's order: stability, optimality and
     complexity (L1 ... X2), then its further statements (X3 ... I1)."""
     return [
-        property_claim(
+        capped_nash_claim(
             "L1",
             'Lemma 1 (§4.1): "Algorithm 2 produces a Nash stable solution, given the reward '
             'function specified by Eq. 4.2 and u_js = |S_s|."',
-            ANY_FAMILY
-            + SMALL_SCOPE_FAMILY
-            + "; Nash stability with capped moves (Pair-GRAPE-S's move set), "
-            "uncapped reported in the note",
-            ("pair-grape-s",),
-            _lemma1,
-            scope=Scope.GENERALISATION,
-            cells=grid_cells(ALL_COMPOSITIONS),
-            strategy=structural_missions(achievable=None),
-            summary=tally_summary("capped not Nash stable", "uncapped not Nash stable"),
-            exhaustive=small_scope,
-            sweep=ALL_COMPOSITIONS,
+            "pair-grape-s",
+            subject="Pair-GRAPE-S's partition",
+            note="; Nash stability with capped moves (Pair-GRAPE-S's move set), uncapped "
+            "reported in the note",
         ),
         property_claim(
             "T1",

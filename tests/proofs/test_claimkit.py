@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import ast
 import concurrent.futures as cf
+import inspect
 import json
 import multiprocessing
 import sys
-import textwrap
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -30,61 +30,33 @@ from proofs.claims import ClaimRegistry, resolve_claims, write_counterexamples
 
 PROOFS = Path(proofs.__file__).parent
 
-#: A module of a user's claims, written to a temporary folder as ``<name>.py``.
-USER_MODULE = '''
+
+def _user_module(folder: Path, name: str, claim_id: str = "MY1") -> Path:
+    """A module of a user's claims, ``folder/<name>.py``: this file's greedy claim, with
+    ``CLAIM`` (id ``claim_id``), ``CLAIMS`` (it and ``<claim_id>b``), ``make`` (a callable
+    returning a claim ``MY1``), ``NOT_A_CLAIM`` and ``nested.claim``."""
+    sources = "\n\n".join(inspect.getsource(f) for f in (_greedy, _at_least_90, _user_claim))
+    text = f"""
+from __future__ import annotations
+
 import numpy as np
 
 import cfopt
 from proofs import claimkit as ck
 
+{sources}
 
-def greedy(mission):
-    """Each robot in index order takes the first still-short slot it can serve."""
-    short = mission.requirements.copy()
-    task = np.full(mission.n_robots, -1)
-    service = np.full(mission.n_robots, -1)
-    for robot in range(mission.n_robots):
-        slots = np.argwhere((short > 0) & mission.capabilities[robot])
-        if len(slots):
-            task[robot], service[robot] = slots[0]
-            short[task[robot], service[robot]] -= 1
-    return cfopt.Assignment(task=task, service=service)
-
-
-def at_least_90(claim, mission):
-    a = greedy(mission)
-    got, best = a.utility(mission), cfopt.solve_exact(mission).utility
-    if got >= 0.9 * best:
-        return ck.Evaluation(None, max(0.0, 1 - got / best) if best else 0.0)
-    detail = f"greedy earns {got:g} of {best:g}"
-    return ck.Evaluation(ck.Counterexample(mission, a, "my-greedy", detail), 1 - got / best)
-
-
-def make(claim_id="{claim_id}"):
-    return ck.property_claim(
-        claim_id,
-        "my-greedy earns at least 90 % of the optimum on achievable missions",
-        ck.ACHIEVABLE_FAMILY,
-        ("my-greedy",),
-        at_least_90,
-        scope=ck.Scope.GENERALISATION,
-        strategy=ck.structural_missions(achievable=True),
-    )
-
-
-CLAIM = make()
-CLAIMS = [CLAIM, make("{claim_id}b")]
+CLAIM = _user_claim({claim_id!r}, cells=False)
+CLAIMS = [CLAIM, _user_claim({claim_id + "b"!r}, cells=False)]
 NOT_A_CLAIM = 42
+make = _user_claim
 
 
 class nested:
     claim = CLAIM
-'''
-
-
-def _user_module(folder: Path, name: str, claim_id: str = "MY1") -> Path:
+"""
     path = folder / f"{name}.py"
-    path.write_text(USER_MODULE.replace("{claim_id}", claim_id), encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
     return path
 
 
@@ -107,6 +79,7 @@ def isolated(
 
 # ------------------------------------------------------------- a user's claim
 def _greedy(mission: cfopt.Mission) -> cfopt.Assignment:
+    """Each robot in index order takes the first still-short slot it can serve."""
     short = mission.requirements.copy()
     task = np.full(mission.n_robots, -1)
     service = np.full(mission.n_robots, -1)
@@ -127,7 +100,9 @@ def _at_least_90(claim: ck.Claim, mission: cfopt.Mission) -> ck.Evaluation:
     return ck.Evaluation(ck.Counterexample(mission, a, "my-greedy", detail), 1 - got / best)
 
 
-def _user_claim(claim_id: str = "MY1") -> ck.Claim:
+def _user_claim(claim_id: str = "MY1", cells: bool = True) -> ck.Claim:
+    """The claim, built from proofs.claimkit's public names only (``cells``: with the
+    seed's 10:5 grid cells of 100 robots, else hypothesis-drawn missions only)."""
     return ck.property_claim(
         claim_id,
         "my-greedy earns at least 90 % of the optimum on achievable missions",
@@ -136,7 +111,7 @@ def _user_claim(claim_id: str = "MY1") -> ck.Claim:
         _at_least_90,
         scope=ck.Scope.GENERALISATION,
         strategy=ck.structural_missions(achievable=True),
-        cells=ck.grid_cells(ck.HARD_COMPOSITIONS),
+        cells=ck.grid_cells(ck.HARD_COMPOSITIONS) if cells else (),
         summary=ck.tally_summary("ok"),
     )
 
@@ -237,29 +212,26 @@ def test_register_claim_adds_a_claim_after_cfopts_and_refuses_clashes(isolated) 
     assert verdict.claim_id == "MY1" and verdict.verdict is ck.VerdictKind.FAILS
 
 
-def _fake_distribution(folder: Path, name: str, entry_points: str) -> None:
-    """An installed distribution ``name`` on ``folder``: METADATA and entry_points.txt."""
-    info = folder / f"{name}-1.0.dist-info"
+def _plugin(folder: Path, module: str, claim_id: str, *entries: str) -> Path:
+    """An installed distribution in ``folder``: module ``module`` of claims (``claim_id``)
+    and ``*.dist-info`` with METADATA and entry points ``name = module:ATTR`` (group
+    ``cfopt.claims``).  Returns ``folder``, to put on ``sys.path``."""
+    _user_module(folder, module, claim_id)
+    info = folder / f"plugin_{module}-1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text(
-        f"Metadata-Version: 2.1\nName: {name}\nVersion: 1.0\n", encoding="utf-8"
+        f"Metadata-Version: 2.1\nName: plugin_{module}\nVersion: 1.0\n", encoding="utf-8"
     )
-    (info / "entry_points.txt").write_text(textwrap.dedent(entry_points), encoding="utf-8")
+    lines = ["[cfopt.claims]", *(entry.replace("MODULE", module) for entry in entries)]
+    (info / "entry_points.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return folder
 
 
 def test_an_entry_point_is_found_lazily_by_the_registry(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, isolated
 ) -> None:
-    _user_module(tmp_path, "ep_claims_one", "EP1")
-    _fake_distribution(
-        tmp_path, "fake_claims_plugin",
-        """
-        [cfopt.claims]
-        one = ep_claims_one:CLAIM
-        more = ep_claims_one:CLAIMS
-        """,
-    )  # fmt: skip
-    monkeypatch.syspath_prepend(tmp_path)  # also clears importlib's caches
+    folder = _plugin(tmp_path, "ep_claims_one", "EP1", "one = MODULE:CLAIM", "more = MODULE:CLAIMS")
+    monkeypatch.syspath_prepend(folder)  # also clears importlib's caches
     registry = ClaimRegistry()
     assert "ep_claims_one" not in sys.modules  # nothing loaded before first use
     ids = list(registry)
@@ -268,40 +240,27 @@ def test_an_entry_point_is_found_lazily_by_the_registry(
     assert registry.origin("EP1") == "ep_claims_one" and registry.origin("L1") is None
 
 
+#: Broken plugins: (claim id of the module, entry point, the error's wording).
+BROKEN_PLUGINS = {
+    "clash": ("L1", "clash = MODULE:CLAIM", r"entry point clash .*'L1' is already"),
+    "type": ("EP3", "w = MODULE:NOT_A_CLAIM", r"must be a proofs\.claimkit\.Claim.*got int"),
+    "import": ("EP4", "missing = no_such_module:X", r"no_such_module:X .*cannot be loaded"),
+    "attr": ("EP5", "gone = MODULE:nothing", r"cannot be loaded: AttributeError"),
+}
+
+
+@pytest.mark.parametrize(
+    ("claim_id", "entry", "match"), BROKEN_PLUGINS.values(), ids=list(BROKEN_PLUGINS)
+)
 def test_entry_points_that_clash_or_break_are_mission_errors(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, isolated
+    claim_id: str, entry: str, match: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, isolated
 ) -> None:
-    _user_module(tmp_path, "ep_claims_two", "L1")
-    _fake_distribution(
-        tmp_path, "fake_clash",
-        """
-        [cfopt.claims]
-        clash = ep_claims_two:CLAIM
-        """,
-    )  # fmt: skip
-    monkeypatch.syspath_prepend(tmp_path)
+    monkeypatch.syspath_prepend(_plugin(tmp_path, f"ep_bad_{claim_id}", claim_id, entry))
     registry = ClaimRegistry()
-    with pytest.raises(cfopt.MissionError, match=r"entry point clash .*'L1' is already"):
+    with pytest.raises(cfopt.MissionError, match=match):
         list(registry)
-    with pytest.raises(cfopt.MissionError, match="'L1' is already"):  # again, not half-built
+    with pytest.raises(cfopt.MissionError, match=match):  # again: never half-built
         len(registry)
-    broken = tmp_path / "broken"
-    broken.mkdir()
-    _fake_distribution(broken, "fake_broken", "[cfopt.claims]\nmissing = no_such_module:X\n")
-    monkeypatch.setattr(sys, "path", [p for p in sys.path if p != str(tmp_path)])
-    monkeypatch.syspath_prepend(broken)
-    with pytest.raises(cfopt.MissionError, match=r"missing = no_such_module:X .*cannot be loaded"):
-        list(ClaimRegistry())
-
-
-def test_an_entry_point_that_is_not_a_claim(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, isolated
-) -> None:
-    _user_module(tmp_path, "ep_claims_three", "EP3")
-    _fake_distribution(tmp_path, "fake_wrong", "[cfopt.claims]\nw = ep_claims_three:NOT_A_CLAIM\n")
-    monkeypatch.syspath_prepend(tmp_path)
-    with pytest.raises(cfopt.MissionError, match=r"must be a proofs.claimkit.Claim.*got int"):
-        list(ClaimRegistry())
 
 
 def test_module_attr_is_resolved_from_the_current_directory(
@@ -407,8 +366,7 @@ def test_a_fresh_worker_process_resolves_module_attr(tmp_path: Path) -> None:
 
 
 def test_a_fresh_worker_process_finds_an_entry_point_claim(tmp_path: Path) -> None:
-    _user_module(tmp_path, "spawned_ep_mod", "EP5")
-    _fake_distribution(tmp_path, "fake_spawned", "[cfopt.claims]\nx = spawned_ep_mod:CLAIM\n")
+    _plugin(tmp_path, "spawned_ep_mod", "EP5", "x = MODULE:CLAIM")
     context = multiprocessing.get_context("spawn")
     sys.path.insert(0, str(tmp_path))  # the installed plugin: on every process's sys.path
     try:
