@@ -42,4 +42,6 @@ def test_the_lower_bounds_ci_installs_are_the_declared_ones() -> None:
     declared.pop("setuptools", None)  # the build backend, not a runtime dependency
     declared.pop("ruff", None)  # a style tool of the dev extra
     declared.pop("import-linter", None)
-    assert {name: declared[name] for name in declared} == {name: pins[name] for name in declared}
+    assert {name: declared[name] for name in declared} == {
+        name: pins[name] for name in declared
+    }
