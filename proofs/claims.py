@@ -136,7 +136,7 @@ class ClaimRegistry(Mapping[str, Claim]):
         """Add ``claim`` (registering the same object again changes nothing); returns it."""
         if not isinstance(claim, Claim):
             raise MissionError(
-                f"register_claim: must be a proofs.claimkit.Claim, got {type(claim).__name__}"
+                f"claim: must be a proofs.claimkit.Claim, got {type(claim).__name__}"
             )
         self._add(claim, "register_claim")
         return claim

@@ -205,7 +205,9 @@ def test_register_claim_adds_a_claim_after_cfopts_and_refuses_clashes(isolated) 
         proofs.register_claim(_user_claim("MY1"))
     with pytest.raises(cfopt.MissionError, match="'L1' is already registered"):
         proofs.register_claim(_user_claim("L1"))
-    with pytest.raises(cfopt.MissionError, match=r"must be a proofs.claimkit.Claim, got str"):
+    with pytest.raises(
+        cfopt.MissionError, match=r"claim: must be a proofs.claimkit.Claim, got str"
+    ):
         proofs.register_claim("MY9")
     # the audit's API checks it by id, like cfopt's own
     [verdict] = proofs.claims.audit_claims(budget=1, ids=["MY1"])
