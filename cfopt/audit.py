@@ -1,6 +1,7 @@
 """The main job, ``cfopt audit``: the seed's claims checked and the optimal-gap report.
 
-:func:`run_audit` runs the claims of :mod:`proofs.claims` and a sweep of the audit grid
+:func:`run_audit` runs the claims of :mod:`proofs.claims` (all registered ones, or those
+given by id or ``MODULE:ATTR``) and a sweep of the audit grid
 (:func:`cfopt.experiments.audit_grid`) on one executor, keeps every finished trial and
 every claim verdict in ``DIR/trials.sqlite`` (so an interrupted audit resumes and says
 how much it reuses), writes each failed claim's counterexample as a mission and an
@@ -10,8 +11,11 @@ assignment file, and renders the report with :func:`cfopt.report.write_report`.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import hashlib
 import os
+import sys
 import traceback
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,7 +55,7 @@ HYPOTHESIS_HOME = ".hypothesis"
 class AuditResult:
     """What :func:`run_audit` found and wrote (frozen).
 
-    ``verdicts`` are :class:`proofs.claims.Verdict` in claim order; ``report`` is
+    ``verdicts`` are :class:`proofs.claimkit.Verdict` in claim order; ``report`` is
     ``None`` for a claims-only audit; ``outcome`` the sweep's
     :class:`~cfopt.experiments.SweepOutcome` (``None`` for claims only);
     ``claim_files`` the counterexample files written; ``failures`` the claims whose
@@ -89,32 +93,112 @@ class AuditResult:
 
 
 def check_claim(
-    claim_id: str, budget: int, seed: int = 0, hypothesis_home: str | None = None
+    claim_id: str,
+    budget: int,
+    seed: int = 0,
+    hypothesis_home: str | None = None,
+    *,
+    reference: str | None = None,
+    directory: str | None = None,
 ) -> dict[str, Any]:
     """One claim's verdict, as the JSON object of ``Verdict.to_dict()``.
 
-    Runs in an executor's worker; the verdict travels back (and into the store) as JSON
-    and is rebuilt with ``Verdict.from_dict``.  ``hypothesis_home`` is where hypothesis
-    may keep its cache (default: its own default, ``.hypothesis`` in the current folder).
+    Runs in an executor's worker (forked or fresh); the verdict travels back (and into the
+    store) as JSON and is rebuilt with ``Verdict.from_dict``.  The claim is looked up in
+    :data:`proofs.claims.CLAIMS` (which loads the entry points in this process), or, given
+    ``reference`` (``MODULE:ATTR``), resolved here with ``directory`` first on
+    ``sys.path``.  ``hypothesis_home`` is where hypothesis may keep its cache (default:
+    its own default, ``.hypothesis`` in the current folder).
     """
-    from proofs import claims
-
     if hypothesis_home is None:
-        return claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0].to_dict()
+        return _verdict(claim_id, budget, seed, reference, directory)
     from hypothesis.configuration import set_hypothesis_home_dir, storage_directory
 
     previous = storage_directory(intent_to_write=False).path
     set_hypothesis_home_dir(hypothesis_home)
     try:
-        return claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0].to_dict()
+        return _verdict(claim_id, budget, seed, reference, directory)
     finally:
         set_hypothesis_home_dir(previous)
 
 
-def _claim_ids() -> list[str]:
+def _verdict(
+    claim_id: str, budget: int, seed: int, reference: str | None, directory: str | None
+) -> dict[str, Any]:
     from proofs import claims
 
-    return list(claims.CLAIMS)
+    if reference is None:
+        return claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0].to_dict()
+    found = {c.id: c for c in claims.resolve_claims(reference, directory=directory)}
+    if claim_id not in found:
+        raise MissionError(f"{reference}: no longer gives claim {claim_id!r}")
+    return found[claim_id].check(budget, seed).to_dict()
+
+
+@dataclass(frozen=True)
+class _ClaimJob:
+    """One claim to check: its id, where a worker finds it, and its store version."""
+
+    claim_id: str
+    reference: str | None  # MODULE:ATTR, or None: a registered claim
+    directory: str | None  # where MODULE is imported from
+    version: str
+
+    def kwargs(self) -> dict[str, Any]:
+        if self.reference is None:
+            return {}
+        return {"reference": self.reference, "directory": self.directory}
+
+
+def _source_version(base: str, module: str | None) -> str:
+    """``base``, plus a digest of ``module``'s source file for a claim not shipped with
+    cfopt (an edited claim of yours is checked again rather than reused from the store)."""
+    if module is None:
+        return base
+    path = getattr(sys.modules.get(module), "__file__", None)
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12] if path else ""
+    except OSError:
+        digest = ""
+    return f"{base}+{module}:{digest}"
+
+
+def _claim_jobs(chosen: Sequence[str] | None) -> list[_ClaimJob]:
+    """The claims to check: every registered one, or those ``chosen`` names (ids or
+    ``MODULE:ATTR``, in the order given)."""
+    from cfopt.experiments import code_version
+    from proofs import claims
+
+    base = code_version("claims")
+    if chosen is None:
+        return [_registered_job(base, claim_id) for claim_id in claims.CLAIMS]
+    jobs: list[_ClaimJob] = []
+    folder = os.getcwd()
+    for reference in chosen:
+        try:
+            found = claims.resolve_claims(reference, directory=folder)
+        except MissionError as exc:
+            raise MissionError(f"claims: {exc}", cli=f"--claims: {exc.cli_message}") from None
+        for claim in found:
+            if any(job.claim_id == claim.id for job in jobs):
+                raise MissionError(
+                    f"claims: claim {claim.id!r} is given twice",
+                    cli=f"--claims: claim {claim.id!r} is given twice",
+                )
+            if ":" not in reference:
+                jobs.append(_registered_job(base, claim.id))
+                continue
+            version = _source_version(base, reference.partition(":")[0])
+            jobs.append(_ClaimJob(claim.id, reference, folder, version))
+    if not jobs:
+        raise MissionError("claims: no claims to check", cli="--claims: no claims to check")
+    return jobs
+
+
+def _registered_job(base: str, claim_id: str) -> _ClaimJob:
+    from proofs import claims
+
+    return _ClaimJob(claim_id, None, None, _source_version(base, claims.claim_origin(claim_id)))
 
 
 def _check_directory(directory: Path, files: list[str], force: bool) -> None:
@@ -135,21 +219,28 @@ def _check_directory(directory: Path, files: list[str], force: bool) -> None:
 class _Claims:
     """The claims part of an audit: stored verdicts reused, the others checked and stored."""
 
-    def __init__(self, store: Path, budget: int, seed: int, home: Path, progress: Progress):
-        from cfopt.experiments import code_version
-        from proofs.claims import Verdict
+    def __init__(
+        self,
+        store: Path,
+        budget: int,
+        seed: int,
+        home: Path,
+        progress: Progress,
+        jobs: Sequence[_ClaimJob],
+    ):
+        from proofs.claimkit import Verdict
 
         self.store, self.budget, self.seed, self.home = store, budget, seed, home
-        self.version = code_version("claims")
-        self.ids = _claim_ids()
+        self.planned = tuple(jobs)
+        self.ids = [job.claim_id for job in self.planned]
         self.verdicts: dict[int, Any] = {}
         self.failures: list[tuple[str, str]] = []
         with ResultStore(store) as db:
-            stored = db.claims(budget, seed, self.version)
-        for number, claim_id in enumerate(self.ids):
-            if claim_id in stored:
+            stored = {v: db.claims(budget, seed, v) for v in {j.version for j in self.planned}}
+        for number, job in enumerate(self.planned):
+            if job.claim_id in stored[job.version]:
                 try:
-                    self.verdicts[number] = Verdict.from_dict(stored[claim_id])
+                    self.verdicts[number] = Verdict.from_dict(stored[job.version][job.claim_id])
                 except (KeyError, TypeError, ValueError):
                     continue  # an unreadable stored verdict is checked again
         self.reused = len(self.verdicts)
@@ -161,10 +252,13 @@ class _Claims:
 
     def jobs(self) -> list[tuple[Any, tuple[Any, ...], dict[str, Any]]]:
         home = os.fspath(self.home)
-        return [(check_claim, (self.ids[n], self.budget, self.seed, home), {}) for n in self.todo]
+        return [
+            (check_claim, (self.ids[n], self.budget, self.seed, home), self.planned[n].kwargs())
+            for n in self.todo
+        ]
 
     def collect(self, position: int, future: cf.Future) -> None:
-        from proofs.claims import Verdict
+        from proofs.claimkit import Verdict
 
         number = self.todo[position]
         exc = future.exception()
@@ -176,7 +270,8 @@ class _Claims:
         data = future.result()
         self.verdicts[number] = Verdict.from_dict(data)
         with ResultStore(self.store) as db:
-            db.add_claim(self.ids[number], self.budget, self.seed, self.version, data)
+            version = self.planned[number].version
+            db.add_claim(self.ids[number], self.budget, self.seed, version, data)
 
     def close(self) -> tuple[Any, ...]:
         failed = f", {len(self.failures)} failed" if self.failures else ""
@@ -197,6 +292,7 @@ def run_audit(
     missions: int | None = None,
     budget: int | None = None,
     seed: int = 0,
+    claims: Sequence[str] | None = None,
 ) -> AuditResult:
     """The main job: the seed's claims checked and the optimal-gap report, in ``directory``.
 
@@ -222,6 +318,11 @@ def run_audit(
         Bars on a terminal, one line per stage in a log; ``False`` for silence.
     cells, missions, budget, seed
         Override the grid, missions per cell, claims budget and claims seed.
+    claims : sequence of str, optional
+        Check exactly these claims, in this order: ids of :data:`proofs.claims.CLAIMS`
+        (``"L1"``) or ``MODULE:ATTR`` (see :func:`proofs.claims.resolve_claims`; MODULE
+        imported with the current directory first on ``sys.path``, in every worker too).
+        Default: every registered claim (cfopt's, then the entry points').
 
     Returns
     -------
@@ -249,36 +350,37 @@ def run_audit(
     missions = missions or (QUICK_MISSIONS if quick else AUDIT_MISSIONS)
     budget = budget or (QUICK_BUDGET if quick else AUDIT_BUDGET)
     report_files = [] if claims_only else report_names_for(cells, claims=True)
+    jobs = _claim_jobs(None if claims is None else list(claims))
     _check_directory(directory, report_files, force)
     progress = Progress.coerce(progress)
     make_directory(directory)
     store = directory / AUDIT_STORE
     sweep = None if claims_only else Sweep(cells=cells, missions=missions)
     with store_lock(store, "cfopt audit"):
-        claims = _Claims(store, budget, seed, directory / HYPOTHESIS_HOME, progress)
+        checks = _Claims(store, budget, seed, directory / HYPOTHESIS_HOME, progress, jobs)
         own = executor is None
         pool = make_executor(workers) if own else executor
         outcome = None
         try:
             if sweep is None:
-                futures = [pool.submit(fn, *args, **kw) for fn, args, kw in claims.jobs()]
+                futures = [pool.submit(fn, *args, **kw) for fn, args, kw in checks.jobs()]
                 for position, future in enumerate(futures):
                     future.exception()  # waits
-                    claims.collect(position, future)
+                    checks.collect(position, future)
             else:
                 outcome = run_sweep(
                     sweep,
                     store,
                     executor=pool,
                     progress=progress,
-                    extra_jobs=claims.jobs(),
-                    on_extra=claims.collect,
+                    extra_jobs=checks.jobs(),
+                    on_extra=checks.collect,
                     lock=False,
                 )
         except SweepInterrupted as exc:
             if own:
                 stop_executor(pool)
-            exc.extra = plural(len(claims.verdicts) - claims.reused, "claim verdict")
+            exc.extra = plural(len(checks.verdicts) - checks.reused, "claim verdict")
             raise
         except KeyboardInterrupt as exc:  # claims only: no sweep to say what it kept
             if own:
@@ -288,14 +390,14 @@ def run_audit(
                 0,
                 0,
                 getattr(exc, "signal_name", "SIGINT"),
-                plural(len(claims.verdicts) - claims.reused, "claim verdict"),
+                plural(len(checks.verdicts) - checks.reused, "claim verdict"),
             ) from None
         except BaseException:
             if own:
                 stop_executor(pool)
             raise
         finally:
-            verdicts = claims.close()
+            verdicts = checks.close()
         if own:
             pool.shutdown(wait=True)
     from proofs.claims import write_counterexamples
@@ -322,5 +424,5 @@ def run_audit(
             title="cfopt audit: the seed's claims and the optimal-gap report",
         )
     return AuditResult(
-        directory, verdicts, report, outcome, claim_files, tuple(claims.failures), claims.reused
+        directory, verdicts, report, outcome, claim_files, tuple(checks.failures), checks.reused
     )

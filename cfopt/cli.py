@@ -317,6 +317,16 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         action="store_true",
         help="only the claims: the verdict table, counterexamples in DIR/counterexamples",
     )
+    sub.add_argument(
+        "--claims",
+        action="append",
+        metavar="CLAIM",
+        help="check exactly the claims given instead of every registered one (repeatable, "
+        "in the order given): a claim id (L1, or one an installed package registers) or "
+        "MODULE:ATTR, ATTR a Claim, a list of Claims or a callable returning them, MODULE "
+        "imported with the current directory first on sys.path; e.g. --claims L1 --claims "
+        "my_claims:CLAIMS. The gap report still runs unless --claims-only",
+    )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_argument(
         "-o",
@@ -342,6 +352,7 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
             workers=args.workers,
             force=args.force,
             progress=Progress.auto(quiet=args.quiet),
+            claims=args.claims,
         )
         if args.json:
             emit_json(result.to_dict())

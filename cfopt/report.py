@@ -1035,7 +1035,7 @@ def write_report(
         failure (a full disk, an interruption) leaves the directory as it was.
     version : str
         The trials' code version (shown in the report).
-    claims : sequence of proofs.claims.Verdict, optional
+    claims : sequence of proofs.claimkit.Verdict, optional
         Adds the claims verdict table (and ``claims.csv``).
     claim_files : sequence of Path
         Counterexample files already written (listed in the report).

@@ -43,6 +43,7 @@ from hypothesis import strategies as st
 import cfopt
 import heuristics
 import proofs
+import proofs.claims
 import proofs.strategies
 from cfopt import Assignment, GridCell, Mission, checks
 
@@ -104,6 +105,8 @@ REQUIRED_BY_CALLABLE: dict[str, dict[str, Any]] = {
 }
 REQUIRED_BY_CALLABLE["require_mission"] = {"value": MISSION}
 REQUIRED_BY_CALLABLE["generate_with_witness"] = REQUIRED_BY_CALLABLE["generate_mission"]
+# a claim registered already: registering the same object again changes nothing
+REQUIRED_BY_CALLABLE["register_claim"] = {"claim": proofs.claims.CLAIMS["G1"]}
 #: Parameters whose errors name another word: the thing the argument is.
 ALIASES = {
     "get_algorithm.name": "algorithm",

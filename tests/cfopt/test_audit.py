@@ -19,7 +19,7 @@ import proofs.claims
 from cfopt import Assignment, GridCell, generate_mission
 from cfopt.cli import main
 from cfopt.experiments import ResultStore, code_version
-from proofs.claims import Counterexample, Verdict, VerdictKind
+from proofs.claimkit import Counterexample, Verdict, VerdictKind
 
 TINY = (GridCell(20, 10, 5, 2), GridCell(20, 50, 5, 1, load=1.25))
 

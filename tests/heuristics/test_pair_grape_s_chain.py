@@ -16,7 +16,7 @@ from cfopt import GridCell, Mission, MissionError, generate_mission, solve_exact
 from heuristics import belief_bytes, broadcast_cost, grape_s, pair_grape_s
 from heuristics.communication import CommModel
 from heuristics.pair_grape_s_chain import ACCEPT_BYTES, pair_grape_s_chain, request_bytes
-from proofs.claims_chain import achievable
+from proofs.claimkit import achievable
 from proofs.strategies import achievable_missions, missions
 
 # r0 does A, r1 A and B, r2 B and C; one task needs A, B, C.  Capped GRAPE-S leaves r0

@@ -12,16 +12,8 @@ import heuristics
 import proofs
 from cfopt import Assignment, Mission
 from cfopt.cli import main
-from proofs.claims import (
-    CLAIMS,
-    Counterexample,
-    Verdict,
-    VerdictKind,
-    audit_claims,
-    format_verdict_table,
-    small_scope,
-    write_counterexamples,
-)
+from proofs.claimkit import Counterexample, Scope, Verdict, VerdictKind, small_scope
+from proofs.claims import CLAIMS, audit_claims, format_verdict_table, write_counterexamples
 
 BUDGET = 4  # grid missions per claim (the search draws 4x as many)
 
@@ -68,6 +60,28 @@ def test_claim_list_starts_with_the_seed_stability_and_optimality_claims() -> No
     assert set(CLAIMS) == set(EXPECTED)
     for claim in CLAIMS.values():  # the seed's claims quote it; cfopt's own say so
         assert ("§" in claim.statement or "cfopt's claim" in claim.statement) and claim.family
+
+
+#: What each claim's check ranges over: the paper's own sizes (G4: 100..150 robots; O3: the
+#: n = 100 grid), the simulator (the distributed claims), else the family at any size.
+PAPER_SIZES = {"G4", "O3"}
+SIMULATOR = {"D1", "D2", "D3", "D4", "D5", "X9"}
+
+
+def test_every_claim_states_the_scope_its_family_ranges_over() -> None:
+    for claim in CLAIMS.values():
+        expected = (
+            Scope.PAPER_SIZES
+            if claim.id in PAPER_SIZES
+            else Scope.SIMULATOR
+            if claim.id in SIMULATOR
+            else Scope.GENERALISATION
+        )
+        assert claim.scope is expected, claim.id
+        if expected is Scope.SIMULATOR:
+            assert "network" in claim.family or "latencies" in claim.family, claim.id
+        if expected is Scope.GENERALISATION:  # small missions, or other sizes than 100+
+            assert any(w in claim.family for w in ("up to 8", "2..", "5..", "25.."))
 
 
 @pytest.mark.parametrize("claim_id", [k for k in EXPECTED if k not in ("L1", "T1", "C2")])

@@ -187,7 +187,7 @@ def test_priorities_break_exact_ties_by_index() -> None:
 
 # ------------------------------------------------------------------ the claims
 def test_claims_o1_holds_and_catches_a_broken_implementation() -> None:
-    from proofs.claims_select import NAME, select_claims
+    from proofs.claims_cfopt import SELECT_ALGORITHM, select_claims
 
     o1 = select_claims()[0]
     assert o1.check(2, seed=0).verdict.value == "holds"
@@ -197,7 +197,7 @@ def test_claims_o1_holds_and_catches_a_broken_implementation() -> None:
 
         return SimpleNamespace(assignment=Assignment.empty(mission))
 
-    broken = o1.with_algorithm(NAME, idle).check(2, seed=0)
+    broken = o1.with_algorithm(SELECT_ALGORITHM, idle).check(2, seed=0)
     assert broken.verdict.value == "fails"
     ce = broken.counterexample
     assert ce is not None and not sel.is_select_stable(ce.mission, ce.assignment)
@@ -205,7 +205,7 @@ def test_claims_o1_holds_and_catches_a_broken_implementation() -> None:
 
 
 def test_claim_o2_finds_the_smallest_counterexample_in_the_sweep() -> None:
-    from proofs.claims_select import select_claims
+    from proofs.claims_cfopt import select_claims
 
     verdict = select_claims()[1].check(3, seed=0)
     assert verdict.verdict.value == "fails"

@@ -19,15 +19,20 @@ from typing import Any
 from cfopt import GridCell, Mission
 from cfopt.experiments import distributed_grid
 from cfopt.generate import SEED_NETWORK
-from proofs.claims import (
+from proofs.claimkit import (
+    ALL_COMPOSITIONS,
+    CheckResult,
     Claim,
     Counterexample,
+    Evaluation,
+    Scope,
     VerdictKind,
-    _generated,
-    _property,
-    _tally_summary,
+    exponent_verdict,
+    generated_missions,
+    property_claim,
+    tally_summary,
+    worst_verdict,
 )
-from proofs.claims import _Outcome as Outcome
 from proofs.scaling import fit_exponent
 from proofs.stability import is_nash_stable
 
@@ -54,35 +59,35 @@ def _replay(algorithm: str, network: str) -> str:
 
 
 # ------------------------------------------------------------------ D1, D2, D4
-def d1(claim: Claim, m: Mission) -> Outcome:
+def d1(claim: Claim, m: Mission) -> Evaluation:
     """Distributed GRAPE-S earns at least 95 % (the seed: 495 of 500 optimal, min 96.7 %)."""
     run = _simulate(m, "grape-s")
     pct = run.assignment.percent_utility(m)
     tallies = ("optimal",) if pct >= 100 else ("below 100 %",)
     if pct >= 95.0:
-        return Outcome(None, 100.0 - pct, tallies)
+        return Evaluation(None, 100.0 - pct, tallies)
     detail = (
         f"distributed GRAPE-S earns {pct:.2f} % < 95 % on an achievable mission; "
         f"{_replay('grape-s', SEED_NETWORK)}"
     )
-    return Outcome(
+    return Evaluation(
         Counterexample(m, run.assignment, "grape-s", detail, SEED_NETWORK, SIM_SEED),
         100.0 - pct,
         tallies,
     )
 
 
-def d2(claim: Claim, m: Mission) -> Outcome:
+def d2(claim: Claim, m: Mission) -> Evaluation:
     """Distributed Pair-GRAPE-S is optimal on every achievable mission."""
     run = _simulate(m, "pair-grape-s")
     pct = run.assignment.percent_utility(m)
     if pct >= 100.0:
-        return Outcome(None, 0.0, ("optimal",))
+        return Evaluation(None, 0.0, ("optimal",))
     detail = (
         f"distributed Pair-GRAPE-S earns {pct:.2f} % of an achievable mission; "
         f"{_replay('pair-grape-s', SEED_NETWORK)}"
     )
-    return Outcome(
+    return Evaluation(
         Counterexample(m, run.assignment, "pair-grape-s", detail, SEED_NETWORK, SIM_SEED),
         100.0 - pct,
         ("below 100 %",),
@@ -95,13 +100,13 @@ def _central_broadcast_bytes(m: Mission, rounds: int) -> int:
     return rounds * m.n_robots * (16 + 4 * m.n_robots)
 
 
-def d4(claim: Claim, m: Mission) -> Outcome:
+def d4(claim: Claim, m: Mission) -> Evaluation:
     """Distributed GRAPE-S transmits more than the centralized one, on the same medium."""
     dist = _simulate(m, "grape-s")
     central = claim.run("grape-s", m, seed=0, order="index")
     central_bytes = _central_broadcast_bytes(m, central.rounds)
     if dist.bytes > central_bytes:
-        return Outcome(None, central_bytes / max(dist.bytes, 1), ("more",))
+        return Evaluation(None, central_bytes / max(dist.bytes, 1), ("more",))
     detail = (
         f"distributed GRAPE-S transmits {dist.bytes / 1e6:.3f} MB ({dist.network.transmissions} "
         f"broadcasts, {dist.iterations} moves in {dist.network.simulated_seconds:.3f} s "
@@ -109,7 +114,7 @@ def d4(claim: Claim, m: Mission) -> Outcome:
         f"{m.n_robots} broadcasts): asynchronous robots apply several moves per clock "
         f"period; {_replay('grape-s', SEED_NETWORK)}"
     )
-    return Outcome(
+    return Evaluation(
         Counterexample(m, dist.assignment, "grape-s", detail, SEED_NETWORK, SIM_SEED),
         1.0 + central_bytes / max(dist.bytes, 1),
         ("fewer or equal",),
@@ -128,7 +133,7 @@ class DegradationMethod:
     #: At most this many missions: a distributed SDA run of 100 robots takes seconds.
     max_missions = 8
 
-    def check(self, claim: Claim, n_missions: int, seed: int):
+    def check(self, claim: Claim, n_missions: int, seed: int) -> CheckResult:
         tallies: Counter[str] = Counter()
         worst: tuple[float, Mission, float, float] | None = None
         n_missions = min(n_missions, self.max_missions)
@@ -164,7 +169,7 @@ class ResilienceMethod:
 
     cells = (GridCell(40, 10, 10, 5), GridCell(40, 10, 5, 1))
 
-    def check(self, claim: Claim, n_missions: int, seed: int):
+    def check(self, claim: Claim, n_missions: int, seed: int) -> CheckResult:
         per_setting = max(1, min(4, math.ceil(n_missions / 10)))
         first_failure: tuple[str, Mission, Any] | None = None
         rows = []
@@ -202,9 +207,7 @@ class DiameterMethod:
     O(n^2 |S| m d_G) and O(n^3 d_G) at fixed n): ring lattices of 48 robots with 46..2
     neighbours each (d_G 1..12), lossless, latencies 1-10 ms; log-log fits against d_G."""
 
-    def check(self, claim: Claim, n_missions: int, seed: int):
-        from proofs.claims import EXPONENT_TOLERANCE
-
+    def check(self, claim: Claim, n_missions: int, seed: int) -> CheckResult:
         per_rung = max(1, min(3, math.ceil(n_missions / 10)))
         xs: list[float] = []
         work: list[float] = []
@@ -220,34 +223,20 @@ class DiameterMethod:
         notes, kinds = [], []
         for measure, ys in (("work", work), ("bytes", sent)):
             fit = fit_exponent(xs, ys)
-            limit = 1 + EXPONENT_TOLERANCE
-            kind = (
-                VerdictKind.HOLDS
-                if fit.ci_high <= limit
-                else VerdictKind.FAILS
-                if fit.ci_low > limit
-                else VerdictKind.INCONCLUSIVE
-            )
+            kind = exponent_verdict(fit, 1)
             kinds.append(kind)
             notes.append(f"grape-s {measure} ~ d_G^{fit} vs seed d_G^1: {kind.value}")
         diameters = sorted({int(x) for x in xs})
         notes.append(f"d_G = {', '.join(map(str, diameters))}, {per_rung} missions each")
-        if VerdictKind.FAILS in kinds:
-            verdict = VerdictKind.FAILS
-        elif VerdictKind.INCONCLUSIVE in kinds:
-            verdict = VerdictKind.INCONCLUSIVE
-        else:
-            verdict = VerdictKind.HOLDS
-        return verdict, len(xs), None, "; ".join(notes)
+        return worst_verdict(kinds), len(xs), None, "; ".join(notes)
 
 
 def distributed_claims() -> list[Claim]:
     """The claims D1-D5 and X9, in the audit's order."""
     cells = [c for c in distributed_grid() if c.robots == 100]
-    everything = ((5, 1), (5, 5), (10, 1), (10, 5))
     achievable = "achievable missions"
     return [
-        _property(
+        property_claim(
             "D1",
             "§6.1.3 (Table 3): \"GRAPE-S's produced optimal 100% utility solutions for 495 of "
             "500 trials ... all of GRAPE-S's solutions were at least near-optimal\" (min 96.7 "
@@ -256,11 +245,12 @@ def distributed_claims() -> list[Claim]:
             "generated missions of 10..60 robots",
             ("grape-s",),
             d1,
-            cells,
-            _generated(everything, min_robots=10),
-            _tally_summary("optimal", "below 100 %"),
+            scope=Scope.SIMULATOR,
+            cells=cells,
+            strategy=generated_missions(ALL_COMPOSITIONS, min_robots=10),
+            summary=tally_summary("optimal", "below 100 %"),
         ),
-        _property(
+        property_claim(
             "D2",
             '§6.1.3: "Unlike GRAPE-S, Pair-GRAPE-S produced optimal solutions for all trials" '
             "(distributed)",
@@ -268,9 +258,10 @@ def distributed_claims() -> list[Claim]:
             "generated missions of 2..60 robots",
             ("pair-grape-s",),
             d2,
-            cells,
-            _generated(everything),
-            _tally_summary("optimal", "below 100 %"),
+            scope=Scope.SIMULATOR,
+            cells=cells,
+            strategy=generated_missions(ALL_COMPOSITIONS),
+            summary=tally_summary("optimal", "below 100 %"),
             sweep=((10, 5),),
         ),
         Claim(
@@ -282,8 +273,9 @@ def distributed_claims() -> list[Claim]:
             "centralized SDA on the same missions",
             ("sda",),
             DegradationMethod(cells),
+            Scope.SIMULATOR,
         ),
-        _property(
+        property_claim(
             "D4",
             "§6.1.2: distributed GRAPE-S needs far more communication than centralized (the "
             "seed: < 100 MB at 100 robots and 50-120 GB at 500, against 30 MB and 750 MB "
@@ -292,9 +284,10 @@ def distributed_claims() -> list[Claim]:
             "generated missions of 10..60 robots",
             ("grape-s",),
             d4,
-            cells,
-            _generated(everything, min_robots=10),
-            _tally_summary("more", "fewer or equal"),
+            scope=Scope.SIMULATOR,
+            cells=cells,
+            strategy=generated_missions(ALL_COMPOSITIONS, min_robots=10),
+            summary=tally_summary("more", "fewer or equal"),
         ),
         Claim(
             "D5",
@@ -305,6 +298,7 @@ def distributed_claims() -> list[Claim]:
             f"{', '.join(LATENCIES)} (10 ms clocks)",
             ("grape-s",),
             ResilienceMethod(),
+            Scope.SIMULATOR,
         ),
         Claim(
             "X9",
@@ -314,5 +308,6 @@ def distributed_claims() -> list[Claim]:
             f"{', '.join(map(str, DIAMETER_LADDER))}, latencies 1-10 ms, no loss",
             ("grape-s",),
             DiameterMethod(),
+            Scope.SIMULATOR,
         ),
     ]
