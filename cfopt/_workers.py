@@ -72,12 +72,33 @@ def make_executor(workers: int | None) -> cf.Executor:
     require_int("workers", n, minimum=1, flag=True)
     if n == 1:
         return InlineExecutor()
-    return cf.ProcessPoolExecutor(max_workers=n, initializer=_worker_setup, initargs=(os.getpid(),))
+    return _WorkerPool(max_workers=n, initializer=_worker_setup, initargs=(os.getpid(),))
+
+
+class _WorkerPool(cf.ProcessPoolExecutor):
+    """A process pool whose workers never see a Ctrl-C meant for their parent.
+
+    The pool forks its workers inside :meth:`submit`.  A SIGINT that reached a worker
+    after the fork but before its initializer ignored SIGINT would end it with a
+    ``KeyboardInterrupt`` of its own (a traceback, and a broken pool instead of the
+    parent's clean "interrupted" line), so SIGINT is blocked in the submitting thread
+    while it may fork: the child starts with it blocked, ignores it, then unblocks it
+    (:func:`_worker_setup`); the parent's own SIGINT is delivered when ``submit`` returns.
+    """
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> cf.Future:
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            return super().submit(fn, *args, **kwargs)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 def _worker_setup(parent: int) -> None:
-    """Runs first in every worker process."""
+    """Runs first in every worker process (started with SIGINT blocked, see
+    :class:`_WorkerPool`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     die_with_parent(parent)
     watch_parent(parent)
 

@@ -160,6 +160,19 @@ def _count(store: Path) -> int:
         return 0
 
 
+def _wait_until_gone(group: int, timeout: float = 60) -> None:
+    """Wait until no process of process group ``group`` is left (killed processes that are
+    in the middle of a system call end it first)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(group, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.02)
+    raise AssertionError(f"process group {group} still has processes after {timeout} s")
+
+
 def test_killed_sweep_resumes_with_one_row_per_trial(tmp_path: Path) -> None:
     store = tmp_path / "killed.sqlite"
     command = [
@@ -177,6 +190,7 @@ def test_killed_sweep_resumes_with_one_row_per_trial(tmp_path: Path) -> None:
         time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)  # the parent and its workers, mid-way
     proc.communicate()
+    _wait_until_gone(proc.pid)  # a worker inside a commit's fsync dies only once it is done
     stored = _count(store)
     assert 15 <= stored < total, "the sweep must be killed mid-way"
 

@@ -520,6 +520,23 @@ def test_an_interrupted_sweep_keeps_what_it_stored(tmp_path: Path, sig: int, cod
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="reads /proc")
+@pytest.mark.parametrize("workers_seen", [1, 2])
+def test_ctrl_c_as_the_workers_start_is_one_line(tmp_path: Path, workers_seen: int) -> None:
+    """A terminal's Ctrl-C reaches the whole process group, workers being forked included:
+    the parent alone answers it, whatever state the workers are in."""
+    store = tmp_path / "s.sqlite"
+    process = _start(*SWEEP, str(store), cwd=tmp_path)
+    _wait_for(lambda: len(_children(process.pid)) >= workers_seen, seconds=60)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and errors[0].startswith("error: interrupted (SIGINT)"), err
+    assert err.strip().splitlines()[-1] == errors[0]
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="reads /proc")
 def test_killing_a_sweep_leaves_no_worker_behind(tmp_path: Path) -> None:
     store = tmp_path / "s.sqlite"
     process = _start(*SWEEP, str(store), cwd=tmp_path)

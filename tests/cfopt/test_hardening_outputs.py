@@ -217,7 +217,7 @@ REFUSED = [
     ),
     pytest.param(
         ["run", "grape-s", "m.json", "--network", "file=d"],
-        "token 'file=d': is a directory, not a JSON file",
+        "token 'file=d': is a directory, not an edge list",
         id="run-network-edge-list-dir",
     ),
 ]
