@@ -51,6 +51,7 @@ from cfopt.experiments import ExecutorFailed, WorkerDied
 
 __all__ = [
     "CONNECT_TIMEOUT",
+    "WORKER_TIMEOUT",
     "INSTALL_HINT",
     "SCHEMES",
     "DaskExecutor",
@@ -63,6 +64,8 @@ __all__ = [
 #: Seconds for a scheduler to answer (TCP connection, dask's handshake, its first answer),
 #: and to reconnect to one that went away, before giving up.
 CONNECT_TIMEOUT = 5.0
+#: Seconds a running scheduler with no worker is given for one to join.
+WORKER_TIMEOUT = 30.0
 #: Seconds a teardown waits for the client and a local cluster to close.
 CLOSE_TIMEOUT = 10.0
 #: How to get dask, for the error raised when it is missing.
@@ -542,6 +545,13 @@ def _check_workers(client: Any, label: str) -> None:
     """
     from cfopt import experiments
 
+    try:
+        client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+    except Exception:  # distributed raises TimeoutError or its own subclass of it
+        raise _error(
+            f"{label}: no worker joined the scheduler within {WORKER_TIMEOUT:g} s (start "
+            f"one with: dask worker {label})"
+        ) from None
     try:
         versions = client.run(_worker_code_version)
     except Exception as exc:  # cfopt missing on a worker: its pickled call cannot load

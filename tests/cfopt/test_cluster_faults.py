@@ -393,3 +393,29 @@ def test_a_local_cluster_sweep_leaves_no_process_behind(tmp_path: Path) -> None:
     ended = _sweep("local:1", tmp_path)  # _finish checks the process group is empty
     assert (ended.code, ended.err) == (0, ""), ended.err
     assert _stored(tmp_path / "s.sqlite") == 2
+
+
+#: Starts the ``cfopt`` command with a shorter wait for a first worker.
+SHORT_WORKER_WAIT = (
+    "import cfopt.cluster as c; c.WORKER_TIMEOUT = 2.0\nfrom cfopt.cli import entry\nentry()"
+)
+
+
+def test_a_scheduler_without_workers_is_one_line_not_a_hang(tmp_path: Path) -> None:
+    from distributed import LocalCluster
+
+    empty = LocalCluster(
+        n_workers=0, processes=False, protocol="tcp", dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+    )  # fmt: skip
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-c", SHORT_WORKER_WAIT, *TINY, "--store",
+             str(tmp_path / "s.sqlite"), "--scheduler", empty.scheduler_address],
+            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            start_new_session=True,
+        )  # fmt: skip
+        ended = _finish(process)
+    finally:
+        empty.close()
+    _one_error(ended, "no worker joined the scheduler within 2 s (start one with: dask worker")
