@@ -17,14 +17,28 @@ from heuristics.mpi import mpi_run
 from heuristics.pair_grape_s import pair_grape_s
 from heuristics.pair_grape_s_chain import pair_grape_s_chain
 from heuristics.rachna import rachna_dt
-from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm, run_algorithm
+from heuristics.registry import (
+    ALGORITHMS,
+    AlgorithmFailed,
+    AlgorithmSpec,
+    Option,
+    Stability,
+    algorithm_names,
+    get_algorithm,
+    register_algorithm,
+    run_algorithm,
+)
 from heuristics.sda import sda
 from heuristics.simulate import simulate
 
 __all__ = [
     "ALGORITHMS",
+    "AlgorithmFailed",
+    "AlgorithmSpec",
+    "Option",
     "Run",
     "RunStatus",
+    "Stability",
     "algorithm_names",
     "belief_bytes",
     "broadcast_cost",
@@ -35,6 +49,7 @@ __all__ = [
     "pair_grape_s",
     "pair_grape_s_chain",
     "rachna_dt",
+    "register_algorithm",
     "run_algorithm",
     "sda",
     "simulate",

@@ -242,6 +242,12 @@ class Run:
         ``COMPLETE``, or ``TIME_LIMIT`` when the engine was cut at its ``time_limit``:
         then the assignment is the partition reached so far and the counts are those of
         the rounds run.
+    counted : bool, default True
+        Whether ``iterations``, ``rounds``, ``messages``, ``bytes``, ``work``,
+        ``exchanges`` and ``pairwise_step_ran`` are the algorithm's own counts.  ``False``
+        for an algorithm that returned only an assignment (:class:`heuristics.AlgorithmSpec`
+        wraps it with its wall-clock time): those fields are then 0 here and *not
+        reported* -- ``None`` in :meth:`to_dict` and in stored trials.
 
     Notes
     -----
@@ -265,6 +271,7 @@ class Run:
     network: Any = None
     communication: Table = ()
     status: RunStatus = RunStatus.COMPLETE
+    counted: bool = True
 
     def __post_init__(self) -> None:
         require_text("algorithm", self.algorithm)
@@ -274,6 +281,7 @@ class Run:
         require_number("seconds", self.seconds, minimum=0, what="a number of seconds")
         require_seed("seed", self.seed, generator=False)
         require_bool("pairwise_step_ran", self.pairwise_step_ran)
+        require_bool("counted", self.counted)
         object.__setattr__(self, "trajectory", _trajectory(self.trajectory))
         object.__setattr__(self, "options", _rows("options", self.options, 2))
         object.__setattr__(self, "communication", _rows("communication", self.communication, 4))
@@ -317,11 +325,17 @@ class Run:
         """The ``run`` JSON object that ``cfopt run --json`` prints, without the stability
         verdicts: the keys below (``status``: ``"complete"`` or ``"time_limit"``), plus
         ``network`` for a distributed run and ``communication`` (one object per model)
-        when the run counted by model.
+        when the run counted by model.  A run that did not count (``counted`` false)
+        has ``None`` (not reported) for ``iterations``, ``rounds``, ``messages``,
+        ``bytes``, ``work``, ``exchanges`` and ``pairwise_step_ran``.
 
         ``nash_stable`` and ``pairwise_stable`` are added by the caller from ``proofs``.
         """
         a = self.assignment
+
+        def count(value: Any) -> Any:
+            return value if self.counted else None
+
         return {
             "algorithm": self.algorithm,
             "status": self.status.value,
@@ -329,14 +343,14 @@ class Run:
             "utility": a.utility(mission),
             "total_utility": mission.total_utility,
             "percent_utility": a.percent_utility(mission),
-            "iterations": self.iterations,
-            "rounds": self.rounds,
-            "messages": self.messages,
-            "bytes": self.bytes,
-            "work": self.work,
+            "iterations": count(self.iterations),
+            "rounds": count(self.rounds),
+            "messages": count(self.messages),
+            "bytes": count(self.bytes),
+            "work": count(self.work),
             "seconds": self.seconds,
-            "exchanges": self.exchanges,
-            "pairwise_step_ran": self.pairwise_step_ran,
+            "exchanges": count(self.exchanges),
+            "pairwise_step_ran": count(self.pairwise_step_ran),
             "options": dict(self.options),
             **({} if self.network is None else {"network": self.network.to_dict()}),
             **(
