@@ -9,8 +9,10 @@ not proven is marked), percent of optimum and of total, iterations, messages, by
 counted work, seconds, and the Nash and pairwise verdicts of :mod:`proofs`.
 
 The result store (:class:`ResultStore`) is one SQLite file in WAL mode.  A trial is
-keyed by ``(cell, mission seed, algorithm, code version)`` (``PRIMARY KEY``, ``INSERT OR
-IGNORE``) and committed as soon as it finishes.  Trials are computed in workers and
+keyed by ``(cell, mission seed, algorithm, algorithm version, code version)`` (``PRIMARY
+KEY``, ``INSERT OR IGNORE``) and committed as soon as it finishes: the code version
+covers cfopt's own sources, the algorithm's version (:attr:`heuristics.AlgorithmSpec.version`)
+what cfopt cannot see, a user's algorithm.  Trials are computed in workers and
 written by the parent only, so a sweep killed at any moment and run again completes with
 no trial lost or duplicated, and re-running a finished sweep does nothing.
 
@@ -471,14 +473,44 @@ def _percent(part: float, whole: float) -> float:
     return 100.0 * part / whole
 
 
-def _run_heuristic(cell: GridCell, algorithm: str, mission: Any, seed: int) -> Any:
+def _run_heuristic(cell: GridCell, spec: Any, algorithm: str, mission: Any, seed: int) -> Any:
+    if cell.network is None:
+        return spec(mission, seed=seed)
+    from heuristics.registry import ALGORITHMS
+    from heuristics.simulate import simulate
+
+    # a registered algorithm by its name (the transport looks its protocol up), any other
+    # by its protocol object
+    agents = algorithm if ALGORITHMS.get(algorithm) is spec else spec.make_protocol()
+    return simulate(mission, agents, cell.network, seed=seed)
+
+
+def _number_text(value: float) -> str:
+    """A grid value as ``cfopt generate`` takes it back exactly: ``10``, ``1.25``."""
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def replay_command(
+    cell: GridCell, mission_index: int, algorithm: str, *, base_seed: int = 0
+) -> str:
+    """The shell commands that replay one trial: generate its mission, run its algorithm.
+
+    >>> replay_command(GridCell(20, 10, 5, 2), 0, "grape-s")  # doctest: +ELLIPSIS
+    'cfopt generate --robots 20 --percent-tasks 10 ... -o mission.json && cfopt run grape-s ...'
+    """
+    import shlex
+
+    seed = cell.mission_seed(mission_index, base_seed)
+    generate = (
+        f"cfopt generate --robots {cell.robots} --percent-tasks "
+        f"{_number_text(cell.percent_tasks)} --service-types {cell.service_types} "
+        f"--services-per-robot {cell.services_per_robot} --load {_number_text(cell.load)} "
+        f"--seed {seed} -o mission.json"
+    )
+    run = f"cfopt run {shlex.quote(algorithm)} mission.json --seed {seed}"
     if cell.network is not None:
-        from heuristics.simulate import simulate
-
-        return simulate(mission, algorithm, cell.network, seed=seed)
-    from heuristics.registry import get_algorithm
-
-    return get_algorithm(algorithm)(mission, seed=seed)
+        run += f" --network {shlex.quote(cell.network)}"
+    return f"{generate} && {run}"
 
 
 def _network_fields(report: Any) -> dict[str, Any]:
@@ -505,6 +537,7 @@ def run_trial(
     optimum: tuple[str, float, float] | None = None,
     time_limit: float | None = DEFAULT_TIME_LIMIT,
     version: str | None = None,
+    directory: str | None = None,
 ) -> Trial:
     """Compute one trial (in whatever process calls it; the store is not touched).
 
@@ -514,7 +547,8 @@ def run_trial(
     mission_index : int
         The mission is ``cell.mission(mission_index, base_seed)``.
     algorithm : str
-        ``"exact"`` or a name in :data:`heuristics.ALGORITHMS`.
+        ``"exact"``, a name in :data:`heuristics.ALGORITHMS` or a ``MODULE:ATTR``
+        reference (:func:`heuristics.get_algorithm`).
     base_seed : int, default 0
     optimum : (status, utility, bound), optional
         The exact solve of the same mission, from the store; solved here when not given.
@@ -522,6 +556,14 @@ def run_trial(
         For the exact solve.
     version : str, optional
         Recorded as :attr:`Trial.code_version` (default: :func:`code_version`).
+    directory : str, optional
+        Where the module of a ``MODULE:ATTR`` algorithm is imported from (default: the
+        current directory): what a worker in another folder needs.
+
+    Raises
+    ------
+    heuristics.AlgorithmFailed
+        When an algorithm that is not cfopt's own raised (or returned no valid result).
 
     Examples
     --------
@@ -538,27 +580,34 @@ def run_trial(
     counts: dict[str, Any] = dict.fromkeys(
         ("iterations", "rounds", "messages", "bytes", "work", "pairwise_step_ran", "algorithm_seed")
     )
+    spec = None
+    if algorithm != EXACT:
+        from heuristics.registry import get_algorithm
+
+        spec = get_algorithm(algorithm, directory=directory)  # a bad name fails before solving
     if algorithm == EXACT or optimum is None:
         result = solve_exact(mission, time_limit=time_limit)
         best = _Optimum(result.status.value, result.utility, result.bound)
     else:
         best = _Optimum(*optimum)
-    if algorithm == EXACT:
+    if spec is None:
         assignment, seconds = result.assignment, result.seconds
     else:
-        run = _run_heuristic(cell, algorithm, mission, mission_seed)
+        run = _run_heuristic(cell, spec, algorithm, mission, mission_seed)
         assignment, seconds = run.assignment, run.seconds
-        counts.update(_network_fields(run.network))
-        counts.update(
-            iterations=run.iterations,
-            rounds=run.rounds,
-            messages=run.messages,
-            bytes=run.bytes,
-            work=run.work,
-            pairwise_step_ran=run.pairwise_step_ran if algorithm == "pair-grape-s" else None,
-            algorithm_seed=mission_seed,
-            communication=getattr(run, "communication", None) or None,
-        )
+        counts.update(_network_fields(run.network), algorithm_seed=mission_seed)
+        if run.counted:
+            counts.update(
+                iterations=run.iterations,
+                rounds=run.rounds,
+                messages=run.messages,
+                bytes=run.bytes,
+                work=run.work,
+                pairwise_step_ran=(
+                    run.pairwise_step_ran if "pairwise_step_ran" in spec.measures else None
+                ),
+                communication=run.communication or None,
+            )
     utility = assignment.utility(mission)
     return Trial(
         cell=cell.label,
@@ -573,6 +622,7 @@ def run_trial(
         tasks=mission.n_tasks,
         total_utility=mission.total_utility,
         algorithm=algorithm,
+        algorithm_version="" if spec is None else spec.version,
         network=cell.network,
         code_version=version or code_version(),
         utility=utility,
@@ -613,10 +663,12 @@ class Sweep:
     missions : int, default 5
         Missions per cell: indices ``0 .. missions-1`` of :meth:`GridCell.mission`.
     algorithms : sequence of str, optional
-        Heuristics (registry names); default: every registered one.  The exact solve
-        (``"exact"``) always runs: it is the optimum every trial is scored against.  A
-        distributed cell (one with a ``network``) runs only the algorithms that have
-        distributed agents (:data:`heuristics.simulate.DISTRIBUTED`).
+        Heuristics: registry names or ``MODULE:ATTR`` references
+        (:func:`heuristics.get_algorithm`; resolved here, and again by each worker);
+        default: every registered one.  The exact solve (``"exact"``) always runs: it is
+        the optimum every trial is scored against.  A distributed cell (one with a
+        ``network``) runs only the algorithms that have a distributed protocol
+        (:attr:`heuristics.AlgorithmSpec.protocol`).
     base_seed : int, default 0
     time_limit : float or None, default 60
         Seconds per exact solve (HiGHS), at most ``1e9`` (``None``: no limit); an optimum
@@ -641,7 +693,7 @@ class Sweep:
         names = algorithm_names() if self.algorithms is None else list(self.algorithms)
         for name in names:
             if name != EXACT:
-                get_algorithm(name)  # raises MissionError listing the known names
+                get_algorithm(name)  # raises MissionError: unknown name, bad reference
         object.__setattr__(
             self, "algorithms", (EXACT, *dict.fromkeys(n for n in names if n != EXACT))
         )
@@ -666,12 +718,22 @@ class Sweep:
         return tuple(a for a in self.algorithms or () if a != EXACT)
 
     def algorithms_for(self, cell: GridCell) -> tuple[str, ...]:
-        """The algorithms run on ``cell`` (``exact`` first)."""
+        """The algorithms run on ``cell`` (``exact`` first): on a distributed cell those
+        with a distributed protocol."""
         if cell.network is None:
             return tuple(self.algorithms or ())
-        from heuristics.simulate import DISTRIBUTED
+        from heuristics.registry import get_algorithm
 
-        return tuple(a for a in self.algorithms or () if a == EXACT or a in DISTRIBUTED)
+        return tuple(a for a in self.algorithms or () if a == EXACT or get_algorithm(a).distributed)
+
+    def algorithm_version(self, algorithm: str) -> str:
+        """The version a trial of ``algorithm`` is stored under (its spec's; ``""`` for
+        ``exact``)."""
+        if algorithm == EXACT:
+            return ""
+        from heuristics.registry import get_algorithm
+
+        return get_algorithm(algorithm).version
 
     def heuristics_for(self, cell: GridCell) -> tuple[str, ...]:
         """The algorithms other than ``exact`` run on ``cell``."""
@@ -698,8 +760,11 @@ class SweepOutcome:
     """What :func:`run_sweep` did (frozen).
 
     ``completed`` trials were computed and stored now, ``skipped`` were in the store
-    already; ``failures`` lists ``(cell, mission_seed, algorithm, traceback)`` of trials
-    that raised (a bug; they are not stored, so the next run retries them).
+    already; ``failures`` lists ``(cell, mission_seed, algorithm, record)`` of trials
+    that did not finish (they are not stored, so the next run retries them); the record
+    is the traceback of a bug, ``WorkerDied: ...`` for a worker that died, or
+    ``AlgorithmFailed: ...`` and a ``replay:`` line for an algorithm that is not cfopt's
+    own and raised (:attr:`algorithm_failures`).
     """
 
     store: str
@@ -714,6 +779,15 @@ class SweepOutcome:
     def ok(self) -> bool:
         """Whether every trial of the sweep is in the store."""
         return not self.failures and self.completed + self.skipped == self.total
+
+    @property
+    def algorithm_failures(self) -> tuple[tuple[str, int, str, str], ...]:
+        """The failures of users' algorithms that raised (not cfopt's bugs)."""
+        return tuple(f for f in self.failures if f[3].startswith(ALGORITHM_FAILED))
+
+
+#: How the record of a failed trial of a user's algorithm starts (:class:`SweepOutcome`).
+ALGORITHM_FAILED = "AlgorithmFailed: "
 
 
 class WorkerDied(RuntimeError):
@@ -733,9 +807,16 @@ class ExecutorFailed(MissionError):
     """
 
 
-def _format_failure(exc: BaseException) -> str:
+def _format_failure(exc: BaseException, replay: str) -> str:
+    """A failed trial's record: ``WorkerDied: ...``, ``AlgorithmFailed: ...`` and the
+    replay line for a user's algorithm that raised (not cfopt's bug: no traceback), or
+    the traceback."""
+    from heuristics.registry import AlgorithmFailed
+
     if isinstance(exc, WorkerDied):
         return f"{type(exc).__name__}: {exc}"
+    if isinstance(exc, AlgorithmFailed):
+        return f"{type(exc).__name__}: {exc}\nreplay: {replay}"
     return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)).rstrip()
 
 
@@ -928,11 +1009,12 @@ class _SweepRun:
         sweep, db = self.sweep, self.db
         db.record_sweep(sweep, self.version, describe_version())
         self.done = db.done(self.version)
+        self.versions = {a: sweep.algorithm_version(a) for a in sweep.algorithms or ()}
         self.optima = db.optima(self.version)
         for cell, index in itertools.product(sweep.cells, range(sweep.missions)):
             seed = cell.mission_seed(index, sweep.base_seed)
             wanted = sweep.algorithms_for(cell)
-            missing = [a for a in wanted if (cell.label, seed, a) not in self.done]
+            missing = [a for a in wanted if not self.stored(cell, seed, a)]
             self.skipped += len(wanted) - len(missing)
             if missing:
                 self.todo.append((cell, index))
@@ -945,11 +1027,17 @@ class _SweepRun:
         for number, (fn, args, kwargs) in enumerate(extras):
             self.pending[self.pool.submit(fn, *args, **kwargs)] = ("extra", number)
 
+    def stored(self, cell: GridCell, seed: int, algorithm: str) -> bool:
+        """Whether the store holds this trial for this code and algorithm version."""
+        return (cell.label, seed, algorithm, self.versions[algorithm]) in self.done
+
     def summary(self) -> str:
         failed = f", {len(self.failures)} failed" if self.failures else ""
         return f"{self.completed} run, {self.skipped} already stored{failed}"
 
     def submit(self, cell: GridCell, index: int, algorithm: str, best: Any) -> None:
+        from heuristics.registry import algorithm_directory
+
         sweep = self.sweep
         future = self.pool.submit(
             run_trial,
@@ -960,13 +1048,14 @@ class _SweepRun:
             optimum=best,
             time_limit=sweep.time_limit,
             version=self.version,
+            directory=None if algorithm == EXACT else algorithm_directory(algorithm),
         )
         self.pending[future] = ("trial", cell, index, algorithm)
 
     def queue_heuristics(self, cell: GridCell, index: int, best: Any) -> None:
         seed = cell.mission_seed(index, self.sweep.base_seed)
         for algorithm in self.sweep.heuristics_for(cell):
-            if (cell.label, seed, algorithm) not in self.done:
+            if not self.stored(cell, seed, algorithm):
                 self.ready.append((cell, index, algorithm, best))
 
     def fill(self) -> None:
@@ -976,7 +1065,7 @@ class _SweepRun:
                 continue
             cell, index = self.todo.popleft()
             seed = cell.mission_seed(index, self.sweep.base_seed)
-            if (cell.label, seed, EXACT) in self.done:
+            if self.stored(cell, seed, EXACT):
                 self.queue_heuristics(cell, index, self.optima[(cell.label, seed)])
             else:
                 self.submit(cell, index, EXACT, None)
@@ -1001,15 +1090,16 @@ class _SweepRun:
         if isinstance(exc, ExecutorFailed):
             raise exc
         if exc is not None:
-            self.fail(cell.label, seed, algorithm, _format_failure(exc))
+            replay = replay_command(cell, index, algorithm, base_seed=self.sweep.base_seed)
+            self.fail(cell.label, seed, algorithm, _format_failure(exc, replay))
             if algorithm == EXACT:  # no optimum: the mission's heuristics cannot be scored
                 for name in self.sweep.heuristics_for(cell):
-                    if (cell.label, seed, name) not in self.done:
+                    if not self.stored(cell, seed, name):
                         self.fail(cell.label, seed, name, "not run: the exact solve failed")
             return
         trial: Trial = future.result()
         self.db.add(trial)
-        self.done.add((cell.label, seed, algorithm))
+        self.done.add((cell.label, seed, algorithm, self.versions[algorithm]))
         self.completed += 1
         self.stage.update(1)
         if algorithm == EXACT:

@@ -2,7 +2,7 @@
 
 A :class:`Trial` is one algorithm on one mission, scored against the mission's exact
 optimum.  :class:`ResultStore` keeps trials keyed by ``(cell, mission seed, algorithm,
-code version)``, committed one at a time, and the audit's claim verdicts keyed by
+algorithm version, code version)``, committed one at a time, and the audit's claim verdicts keyed by
 ``(claim, budget, seed, code version)``, so an interrupted sweep or audit resumes with
 nothing lost and nothing computed twice.  :func:`store_lock` lets one sweep at a time
 write to a store: a second sweep on the same store is refused with a message naming the
@@ -31,9 +31,9 @@ __all__ = ["EXACT", "ResultStore", "StoreBusy", "Trial", "check_store_path", "st
 
 #: The algorithm name of the exact solve's trials.
 EXACT = "exact"
-_SCHEMA_VERSION = "4"
+_SCHEMA_VERSION = "5"
 #: Older schemas this cfopt reads (and, when it writes, upgrades in place).
-_READABLE_SCHEMAS = ("2", "3", "4")
+_READABLE_SCHEMAS = ("2", "3", "4", "5")
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -56,9 +56,15 @@ class Trial:
     total_utility : float
         Sum of the task utilities.
     algorithm : str
-        ``"exact"`` or a registry name (``"grape-s"``...).
+        ``"exact"``, a registry name (``"grape-s"``...) or the ``MODULE:ATTR`` reference
+        the sweep was given.
     code_version : str
         :func:`code_version` of the code that computed the trial.
+    algorithm_version : str
+        The algorithm's :attr:`heuristics.AlgorithmSpec.version` (``""`` for ``exact``,
+        whose code the code version covers); part of the key, so a new version of an
+        algorithm is computed again.  Trials stored before schema 5 read as ``"1"``
+        (every algorithm's version then).
     utility : float
         Utility of the algorithm's assignment, recomputed from scratch.
     optimum, optimum_bound : float
@@ -82,7 +88,10 @@ class Trial:
         Pairwise stability with ``mode="pareto"`` (one deviator strictly better, neither
         worse): the informative pairwise notion.
     pairwise_step_ran : bool or None
-        Pair-GRAPE-S only: whether its pairwise step was needed.
+        Whether the algorithm's pairwise step was needed, as its run reports it (the
+        Pair-GRAPE-S variants; ``False`` for the algorithms without one); ``None`` for
+        ``exact`` and for runs that report no counts.  Before cfopt stored it for every
+        algorithm, only Pair-GRAPE-S's was kept.
     algorithm_seed : int or None
         The seed the heuristic ran with (the mission seed).
     finished : float
@@ -148,6 +157,7 @@ class Trial:
     beliefs_agree: bool | None = None
     cut: bool | None = None
     communication: tuple[tuple[str, str, int, int], ...] | None = None
+    algorithm_version: str = ""
 
     @property
     def optimum_proven(self) -> bool:
@@ -160,9 +170,16 @@ class Trial:
         return f"{self.service_types}:{self.services_per_robot}"
 
     @property
-    def key(self) -> tuple[str, int, str, str]:
-        """The store's primary key ``(cell, mission_seed, algorithm, code_version)``."""
-        return (self.cell, self.mission_seed, self.algorithm, self.code_version)
+    def key(self) -> tuple[str, int, str, str, str]:
+        """The store's primary key ``(cell, mission_seed, algorithm, algorithm_version,
+        code_version)``."""
+        return (
+            self.cell,
+            self.mission_seed,
+            self.algorithm,
+            self.algorithm_version,
+            self.code_version,
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """All fields, JSON-ready."""
@@ -186,7 +203,9 @@ _INT_FIELDS = {
     "algorithm_seed", "transmissions", "receptions", "losses",
 }  # fmt: skip
 _TRIAL_FIELDS = tuple(f.name for f in fields(Trial))
-_TEXT_FIELDS = {"cell", "algorithm", "code_version", "optimum_status", "network"}
+_TEXT_FIELDS = {
+    "cell", "algorithm", "code_version", "optimum_status", "network", "algorithm_version",
+}  # fmt: skip
 _OPTIONAL_FIELDS = {
     "percent_optimum", "iterations", "rounds", "messages", "bytes", "work",
     "pairwise_step_ran", "algorithm_seed", "network", "sim_seconds", "convergence_seconds",
@@ -201,11 +220,17 @@ _SCHEMA_3_COLUMNS = (
 #: Columns added by schema 4 (the per-trial communication table, JSON text); an older
 #: store gains them, empty.
 _SCHEMA_4_COLUMNS = ("communication",)
+#: Columns added by schema 5 (the algorithm's version, in the primary key): an older
+#: store is rebuilt with it, ``"1"`` for its heuristics' trials and ``""`` for exact ones.
+_SCHEMA_5_COLUMNS = ("algorithm_version",)
 #: The columns each older schema lacks.
 _LATER_COLUMNS = {
-    "2": set(_SCHEMA_3_COLUMNS) | set(_SCHEMA_4_COLUMNS),
-    "3": set(_SCHEMA_4_COLUMNS),
+    "2": set(_SCHEMA_3_COLUMNS) | set(_SCHEMA_4_COLUMNS) | set(_SCHEMA_5_COLUMNS),
+    "3": set(_SCHEMA_4_COLUMNS) | set(_SCHEMA_5_COLUMNS),
+    "4": set(_SCHEMA_5_COLUMNS),
 }
+#: How a store without the column reads a trial's algorithm version.
+_OLD_ALGORITHM_VERSION = f"CASE WHEN algorithm = '{EXACT}' THEN '' ELSE '1' END"
 
 
 def _communication_json(table: Any) -> str | None:
@@ -284,7 +309,9 @@ _COLUMN_TYPES = {
     "mission_seed": "INTEGER NOT NULL",
     "algorithm": "TEXT NOT NULL",
     "code_version": "TEXT NOT NULL",
+    "algorithm_version": "TEXT NOT NULL DEFAULT ''",
 }
+_PRIMARY_KEY = "(cell, mission_seed, algorithm, algorithm_version, code_version)"
 
 
 def _column_type(name: str) -> str:
@@ -295,12 +322,12 @@ def _column_type(name: str) -> str:
     return "TEXT" if name in _TEXT_FIELDS or name == "communication" else "REAL"
 
 
-def _schema() -> str:
+def _schema(table: str = "trials") -> str:
     columns = []
     for name in _TRIAL_FIELDS:
         columns.append(f"  {name} {_column_type(name)}")
-    columns.append("  PRIMARY KEY (cell, mission_seed, algorithm, code_version)")
-    return "CREATE TABLE IF NOT EXISTS trials (\n" + ",\n".join(columns) + "\n)"
+    columns.append(f"  PRIMARY KEY {_PRIMARY_KEY}")
+    return f"CREATE TABLE IF NOT EXISTS {table} (\n" + ",\n".join(columns) + "\n)"
 
 
 _CLAIMS_SCHEMA = (
@@ -327,8 +354,8 @@ class ResultStore:
     Notes
     -----
     WAL mode, one committed transaction per trial.  The primary key is ``(cell,
-    mission_seed, algorithm, code_version)`` and trials are inserted with ``INSERT OR
-    IGNORE``: adding a trial twice keeps the first.  Every row read back is checked
+    mission_seed, algorithm, algorithm_version, code_version)`` and trials are inserted
+    with ``INSERT OR IGNORE``: adding a trial twice keeps the first.  Every row read back is checked
     column by column, so an edited store gives a clean error naming the row.  Several
     processes may read at once; one sweep at a time writes (:func:`store_lock`), from
     its parent process only.  Use as a context manager, or call :meth:`close`.
@@ -405,8 +432,10 @@ class ResultStore:
         self._has_sweeps = create or "sweeps" in tables
 
     def _upgrade(self) -> None:
-        """Schema 2 -> 3 -> 4, in one transaction: the distributed trials' columns (3) and
-        the communication table's (4), empty for the stored trials."""
+        """Schema 2 -> 3 -> 4 -> 5, in one transaction: the distributed trials' columns
+        (3) and the communication table's (4), empty for the stored trials; then (5) the
+        table is rebuilt with the algorithm's version in its primary key, ``"1"`` for the
+        stored heuristics' trials and ``""`` for the exact solves."""
         db = self._db
         with self._transaction():
             present = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
@@ -414,6 +443,16 @@ class ResultStore:
                 if column not in present:
                     kind = _column_type(column)
                     db.execute(f"ALTER TABLE trials ADD COLUMN {column} {kind}")
+            if "algorithm_version" not in present:
+                db.execute("DROP TABLE IF EXISTS trials_upgrade")
+                db.execute(_schema("trials_upgrade"))
+                kept = [f for f in _TRIAL_FIELDS if f != "algorithm_version"]
+                db.execute(
+                    f"INSERT INTO trials_upgrade ({', '.join(kept)}, algorithm_version) "
+                    f"SELECT {', '.join(kept)}, {_OLD_ALGORITHM_VERSION} FROM trials"
+                )
+                db.execute("DROP TABLE trials")
+                db.execute("ALTER TABLE trials_upgrade RENAME TO trials")
             db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (_SCHEMA_VERSION,))
 
     # -------------------------------------------------------------- plumbing
@@ -477,13 +516,15 @@ class ResultStore:
             )
 
     # ----------------------------------------------------------------- reads
-    def done(self, version: str) -> set[tuple[str, int, str]]:
-        """``(cell, mission_seed, algorithm)`` of the trials stored for ``version``."""
+    def done(self, version: str) -> set[tuple[str, int, str, str]]:
+        """``(cell, mission_seed, algorithm, algorithm_version)`` of the trials stored for
+        code version ``version``."""
         rows = self._db.execute(
-            "SELECT cell, mission_seed, algorithm FROM trials WHERE code_version = ?",
+            "SELECT cell, mission_seed, algorithm, algorithm_version FROM trials"
+            " WHERE code_version = ?",
             (version,),
         )
-        return {(c, int(s), a) for c, s, a in rows}
+        return {(c, int(s), a, str(v)) for c, s, a, v in rows}
 
     def optima(self, version: str) -> dict[tuple[str, int], tuple[str, float, float]]:
         """``(cell, mission_seed) -> (status, utility, bound)`` of the stored exact solves."""
@@ -503,7 +544,7 @@ class ResultStore:
 
     def trials(self, version: str | None = None) -> list[Trial]:
         """Stored trials (of ``version``, or all), in a stable order, each row checked."""
-        selected = [f if f in self._columns else f"NULL AS {f}" for f in _TRIAL_FIELDS]
+        selected = [f if f in self._columns else f"{_missing(f)} AS {f}" for f in _TRIAL_FIELDS]
         query = f"SELECT rowid, {', '.join(selected)} FROM trials"
         args: tuple[Any, ...] = ()
         if version is not None:
@@ -511,7 +552,7 @@ class ResultStore:
             args = (version,)
         query += (
             " ORDER BY robots, percent_tasks, service_types, services_per_robot, load,"
-            " base_seed, mission_index, algorithm, code_version"
+            " base_seed, mission_index, algorithm, algorithm_version, code_version"
         )
         return [
             _trial_from_row(row[1:], f"{self._name}: trials row {row[0]}")
@@ -556,6 +597,11 @@ class ResultStore:
             with contextlib.suppress(ValueError, TypeError):
                 out.append({"started": started, "code_version": version, "spec": json.loads(spec)})
         return out
+
+
+def _missing(column: str) -> str:
+    """What an older store without ``column`` reads in its place."""
+    return _OLD_ALGORITHM_VERSION if column == "algorithm_version" else "NULL"
 
 
 # --------------------------------------------------------------------------- lock

@@ -96,6 +96,8 @@ __all__ = [
 ENTRY_POINT_GROUP = "cfopt.algorithms"
 #: The types an :class:`Option` may have.
 OPTION_TYPES = (bool, int, float, str)
+#: Measures a run may report beyond the common counts (:attr:`AlgorithmSpec.measures`).
+MEASURES = ("exchanges", "pairwise_step_ran")
 
 
 # ---------------------------------------------------------------------- stability
@@ -299,6 +301,10 @@ class AlgorithmSpec:
         With ``stability="own"`` (and only then): ``checker(mission, assignment) -> list``
         of violations (empty: stable), or its ``"MODULE:ATTR"``, imported when first
         needed (:meth:`stability_checker`).
+    measures : tuple of str
+        The measures of :data:`MEASURES` its runs report beyond the common counts
+        (``"exchanges"``, ``"pairwise_step_ran"``: the Pair-GRAPE-S variants); stored
+        trials keep them only for the algorithms that report them.
     summary : str, optional
         One line for help texts (default: the first line of ``run``'s docstring).
 
@@ -329,6 +335,7 @@ class AlgorithmSpec:
     protocol: Callable[..., Any] | str | None = None
     protocol_options: tuple[Option, ...] = ()
     checker: Callable[..., Any] | str | None = None
+    measures: tuple[str, ...] = ()
     summary: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
@@ -359,6 +366,13 @@ class AlgorithmSpec:
                 'checker: give one exactly when stability is "own" (the results are checked '
                 f"by it), got stability {self.stability.value!r} and checker {shown(self.checker)}"
             )
+        if not isinstance(self.measures, tuple | list) or any(
+            m not in MEASURES for m in self.measures
+        ):
+            raise MissionTypeError(
+                f"measures: must be a tuple of {', '.join(MEASURES)}, got {shown(self.measures)}"
+            )
+        object.__setattr__(self, "measures", tuple(self.measures))
         summary = require_text("summary", self.summary, empty=True)
         if not summary:
             doc = inspect.getdoc(self.run) or ""
@@ -683,6 +697,7 @@ _EXCHANGE = Option(
     "exchange", bool, True, "the exchange phase step (--no-exchange: the ablation without it)"
 )
 _SDA_EPS = Option("eps", float, 1.0, "the wage decrement")
+_PAIRWISE = ("exchanges", "pairwise_step_ran")
 
 SHIPPED: tuple[AlgorithmSpec, ...] = (
     AlgorithmSpec(
@@ -695,7 +710,7 @@ SHIPPED: tuple[AlgorithmSpec, ...] = (
     ),
     AlgorithmSpec(
         "pair-grape-s", pair_grape_s, stability="capped", options=(_REWARD, *_COMMON),
-        protocol="heuristics.simulate:PairGrapeSProtocol",
+        protocol="heuristics.simulate:PairGrapeSProtocol", measures=_PAIRWISE,
         summary="Pair-GRAPE-S: capped GRAPE-S, then the seed's pairwise exchanges",
     ),
     AlgorithmSpec(
@@ -721,7 +736,7 @@ SHIPPED: tuple[AlgorithmSpec, ...] = (
     AlgorithmSpec(
         "pair-grape-s-chain", pair_grape_s_chain, stability="capped",
         options=(_REWARD, *_COMMON),
-        protocol="heuristics.simulate:PairGrapeSChainProtocol",
+        protocol="heuristics.simulate:PairGrapeSChainProtocol", measures=_PAIRWISE,
         summary="Pair-GRAPE-S with chain exchanges (cfopt's own)",
     ),
     AlgorithmSpec(
