@@ -17,6 +17,7 @@ import math
 import os
 import signal
 import sys
+import textwrap
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, NoReturn
 
@@ -494,9 +495,40 @@ def _add_solve(sub: argparse.ArgumentParser) -> Handler:
 
 def _add_run(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument(
-        "algorithm", metavar="ALGORITHM", help="heuristic: grape-s, pair-grape-s, sda, rachna-dt"
+        "algorithm",
+        metavar="ALGORITHM",
+        help="a registered algorithm (listed below) or MODULE:ATTR, your own: a "
+        "heuristics.AlgorithmSpec or a function (mission, *, seed=None, **options) -> Run or "
+        "Assignment in MODULE, imported with the current directory first on sys.path; give it "
+        "first: 'cfopt run ALGORITHM --help' lists its options",
     )
     sub.add_argument("mission", metavar="MISSION", help="mission JSON file ('-' = stdin)")
+    _add_run_options(sub)
+
+    def run(args: argparse.Namespace) -> int:
+        from heuristics.registry import get_algorithm
+
+        spec = get_algorithm(args.algorithm)
+        distributed = args.network is not None or args.backend == "mpi"
+        if args.ranks is not None and args.backend != "mpi":
+            raise MissionError("--ranks: only with --backend mpi")
+        m = load_mission(args.mission)
+        check_output_free(args)
+        given = _given_options(args)
+        if distributed:
+            _refuse_options(given, spec.protocol_options, spec.name, distributed=True)
+            result = _distributed(args, m, spec, given)
+        else:
+            _refuse_options(given, spec.options, spec.name, distributed=False)
+            result = _centralized(args, m, spec, given)
+        return finish_run(args, m, result)
+
+    return run
+
+
+def _add_run_options(sub: argparse.ArgumentParser) -> None:
+    """``cfopt run``'s own options, those of every algorithm (each algorithm's come from
+    its spec: :func:`_add_algorithm_options`)."""
     sub.add_argument(
         "--seed",
         type=_whole_number(0),
@@ -504,55 +536,16 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         metavar="X",
         help="random seed (same seed, same run); default: fresh",
     )
-    sub.add_argument(
-        "--order",
-        choices=("index", "random"),
-        default="index",
-        help="robot order each round: index (default, the seed's simulator) or seeded random",
-    )
-    sub.add_argument(
-        "--eps",
-        type=_positive_number,
-        default=None,
-        metavar="X",
-        help="sda: the wage decrement (default 1); rachna-dt: the wage increase (default 1/n)",
-    )
-    sub.add_argument(
-        "--medium",
-        choices=("broadcast", "unicast"),
-        default=None,
-        help="how messages are counted: broadcast (default: one transmission reaches every "
-        "neighbour, the seed's UDP) or unicast (one message per receiver)",
-    )
-    sub.add_argument(
-        "--encoding",
-        choices=("full", "compact"),
-        default=None,
-        help="belief size: full (default, 16 + 4 n bytes) or compact (slots bit-packed, "
-        "ceil(log2(m S + 1)) bits each; the auctions send no beliefs)",
-    )
-    sub.add_argument(
-        "--max-rounds",
-        type=_whole_number(1),
-        default=None,
-        metavar="N",
-        help="rachna-dt: refuse missions needing more bidding rounds (default 100000)",
-    )
-    sub.add_argument(
-        "--network",
-        default=None,
-        metavar="SPEC",
-        help=_NETWORK_HELP,
-    )
+    sub.add_argument("--network", default=None, metavar="SPEC", help=_NETWORK_HELP)
     sub.add_argument(
         "--time-limit",
         type=time_limit_type,
         default=None,
         metavar="SEC",
         help="wall-clock seconds after which a centralized run stops with the partition "
-        "reached (status time_limit; default: no limit); with --network simulated seconds "
-        "after which the run is cut (default 3600, at most 8796; real seconds with "
-        "--backend mpi)",
+        "reached (status time_limit; default: no limit; for the algorithms that take "
+        "time_limit); with --network simulated seconds after which the run is cut (default "
+        "3600, at most 8796; real seconds with --backend mpi)",
     )
     sub.add_argument(
         "--backend",
@@ -571,35 +564,148 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         "(default 2, at most one per robot)",
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
-
     _add_output_options(sub)
 
-    def run(args: argparse.Namespace) -> int:
-        from heuristics.registry import get_algorithm
 
-        algorithm = get_algorithm(args.algorithm)
-        distributed = args.network is not None or args.backend == "mpi"
-        if args.ranks is not None and args.backend != "mpi":
-            raise MissionError("--ranks: only with --backend mpi")
-        m = load_mission(args.mission)
-        check_output_free(args)
-        options = _auction_options(args)
-        model = _model_options(args)
-        if distributed:
-            if options:
-                raise MissionError("--eps and --max-rounds: not for distributed runs")
-            if model:
-                raise MissionError(
-                    "--medium and --encoding: not for distributed runs (the network spec's "
-                    "medium= decides)"
-                )
-            result = _distributed(args, m)
-        else:
-            limit = {} if args.time_limit is None else {"time_limit": args.time_limit}
-            result = algorithm(m, seed=args.seed, order=args.order, **options, **model, **limit)
-        return finish_run(args, m, result)
+#: The ``dest`` prefix of an algorithm's own flags.
+_OPTION_DEST = "option:"
+#: Options that ``cfopt run``'s own flags give (not flags of their own).
+_RUN_FLAGS = {"time_limit": "--time-limit"}
 
-    return run
+
+def _option_value(option: Any) -> Callable[[str], Any]:
+    """How a flag's text becomes the option's value (bools are flags without one)."""
+    if option.type is int:
+        return _whole_number(-(10**100))
+    if option.type is float:
+        return _finite_number
+    return str
+
+
+def _finite_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def _option_help(option: Any, distributed: str) -> str:
+    default = "" if option.default is None else f" (default: {option.default})"
+    return f"{distributed}{option.help}{default}"
+
+
+def _add_algorithm_options(sub: argparse.ArgumentParser, spec: Any) -> None:
+    """The flags of ``spec``'s options (centralized runs) and protocol options
+    (``--network``), and a description of the algorithm for ``--help``."""
+    group = sub.add_argument_group(
+        f"options of {spec.name}",
+        f"{spec.summary or spec.name}. Stability: {spec.stability.description}; version "
+        f"{spec.version}; "
+        + ("distributed runs with --network." if spec.distributed else "no distributed runs."),
+    )
+    central = {o.name for o in spec.options}
+    agents = {o.name for o in spec.protocol_options}
+    for option in (*spec.options, *(o for o in spec.protocol_options if o.name not in central)):
+        if option.name in _RUN_FLAGS:
+            continue
+        where = (
+            "" if option.name not in agents else
+            "distributed runs: " if option.name not in central else
+            "also for distributed runs: "
+        )  # fmt: skip
+        extra: dict[str, Any] = (
+            {"action": argparse.BooleanOptionalAction}
+            if option.type is bool
+            else {"type": _option_value(option), "choices": option.choices, "metavar": None}
+        )
+        if option.choices is None and option.type is not bool:
+            extra["metavar"] = option.type.__name__.upper()
+        try:
+            group.add_argument(
+                option.flag,
+                dest=_OPTION_DEST + option.name,
+                default=None,
+                help=_option_help(option, where),
+                **extra,
+            )
+        except argparse.ArgumentError:  # a flag of cfopt run itself
+            raise MissionError(
+                f"{spec.name}: option {option.name!r} takes the flag {option.flag} of "
+                "cfopt run itself; rename the option"
+            ) from None
+
+
+def _given_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The algorithm's options given on the command line, by name."""
+    return {
+        key[len(_OPTION_DEST) :]: value
+        for key, value in vars(args).items()
+        if key.startswith(_OPTION_DEST) and value is not None
+    }
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _refuse_options(
+    given: dict[str, Any], allowed: Sequence[Any], name: str, *, distributed: bool
+) -> None:
+    """Refuse the given options that this kind of run of algorithm ``name`` does not take."""
+    names = [o.name for o in allowed if o.name not in _RUN_FLAGS]
+    wrong = [n for n in given if n not in names]
+    if not wrong:
+        return
+    flags = " and ".join(map(_flag, wrong))
+    if not distributed:
+        raise MissionError(f"{flags}: only for distributed runs of {name} (with --network)")
+    takes = ", ".join(map(_flag, names)) or "no options"
+    raise MissionError(
+        f"{flags}: not for distributed runs ({name}'s agents take {takes}; the network spec "
+        "and the robots' clocks decide the rest)"
+    )
+
+
+def _centralized(args: argparse.Namespace, m: Mission, spec: Any, given: dict[str, Any]) -> Any:
+    from heuristics.registry import AlgorithmFailed
+
+    if args.time_limit is not None:
+        if "time_limit" not in {o.name for o in spec.options}:
+            raise MissionError(f"--time-limit: {spec.name} takes no time limit")
+        given = {**given, "time_limit": args.time_limit}
+    try:
+        return spec(m, seed=args.seed, **given)
+    except AlgorithmFailed as exc:
+        raise MissionError(f"{args.algorithm}: {exc.problem} (on {args.mission})") from None
+
+
+def _prepare_run(sub: argparse.ArgumentParser, argv: Sequence[str]) -> None:
+    """Phase one of ``cfopt run``'s parsing: find ALGORITHM, then add its flags and list
+    the registered algorithms in the help."""
+    from heuristics.registry import ALGORITHMS, algorithm_names, get_algorithm
+
+    pre = Parser(prog=sub.prog, add_help=False)
+    pre.add_argument("algorithm", nargs="?")
+    _add_run_options(pre)
+    known, _ = pre.parse_known_args(argv)
+    if known.algorithm is not None and not known.algorithm.startswith("-"):
+        _add_algorithm_options(sub, get_algorithm(known.algorithm))
+    lines = ["algorithms (cfopt run ALGORITHM --help shows an algorithm's options):"]
+    rows = [
+        (name, spec.summary, spec.stability.value, spec.distributed)
+        for name, spec in ((n, ALGORITHMS[n]) for n in algorithm_names())
+    ]
+    for name, summary, stability, agents in rows:
+        text = f"{summary} (stability: {stability}{'; distributed' if agents else ''})"
+        lines += textwrap.wrap(
+            text, 79, initial_indent=f"  {name:<20} ", subsequent_indent=" " * 23
+        )
+    lines.append(f"  {'MODULE:ATTR':<20} your own (see ALGORITHM above)")
+    sub.epilog = "\n".join(lines)
+    sub.formatter_class = argparse.RawDescriptionHelpFormatter
 
 
 def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
@@ -625,9 +731,8 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
         return EXIT_OK
     summary = [
         f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
-        f"({out['percent_utility']:.2f}%), {plural(result.iterations, 'iteration')}, "
-        f"{plural(result.rounds, 'round')}, {plural(result.messages, 'message')}, "
-        f"{plural(result.bytes, 'byte')}, {result.seconds:.3f} s{_status_note(result)}",
+        f"({out['percent_utility']:.2f}%), {_counts_text(result)}, "
+        f"{result.seconds:.3f} s{_status_note(result)}",
         f"stability: Nash {_yes_no(out['nash_stable'])}, "
         f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
         f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
@@ -636,6 +741,17 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
         summary += _network_summary(result.network)
     _print_result(summary, assignment_json, args)
     return EXIT_OK
+
+
+def _counts_text(result: Any) -> str:
+    """``"3 iterations, 4 rounds, 80 messages, 1 byte"``, or that the algorithm did not
+    report them."""
+    if not result.counted:
+        return "iterations, rounds, messages and bytes not reported"
+    return (
+        f"{plural(result.iterations, 'iteration')}, {plural(result.rounds, 'round')}, "
+        f"{plural(result.messages, 'message')}, {plural(result.bytes, 'byte')}"
+    )
 
 
 def _status_note(result: Any) -> str:
@@ -657,35 +773,21 @@ _NETWORK_HELP = (
 )
 
 
-def _auction_options(args: argparse.Namespace) -> dict[str, Any]:
-    options: dict[str, Any] = {}
-    if args.eps is not None:
-        if args.algorithm not in ("sda", "rachna-dt"):
-            raise MissionError("--eps: only for the auctions (sda, rachna-dt)")
-        options["eps"] = args.eps
-    if args.max_rounds is not None:
-        if args.algorithm != "rachna-dt":
-            raise MissionError("--max-rounds: only for rachna-dt")
-        options["max_rounds"] = args.max_rounds
-    return options
-
-
-def _model_options(args: argparse.Namespace) -> dict[str, Any]:
-    """``--medium`` / ``--encoding`` as the algorithm's keyword options (when given)."""
-    return {k: v for k in ("medium", "encoding") if (v := getattr(args, k)) is not None}
-
-
-def _distributed(args: argparse.Namespace, mission: Mission) -> Any:
+def _distributed(
+    args: argparse.Namespace, mission: Mission, spec: Any, given: dict[str, Any]
+) -> Any:
+    from cfopt.experiments import distributed_agents
     from heuristics.simulate import DEFAULT_TIME_LIMIT, simulate
 
-    if args.order != "index":
-        raise MissionError("--order: a distributed run has no robot order (the clocks decide)")
+    agents, options = distributed_agents(args.algorithm, given)
     if args.backend == "mpi":
         from heuristics.mpi import mpi_run
 
+        if options:  # a registered name: its protocol with these options
+            agents = spec.make_protocol(**options)
         return mpi_run(
             mission,
-            args.algorithm,
+            agents,
             args.network or "complete",
             ranks=2 if args.ranks is None else args.ranks,
             seed=args.seed,
@@ -693,10 +795,11 @@ def _distributed(args: argparse.Namespace, mission: Mission) -> Any:
         )
     return simulate(
         mission,
-        args.algorithm,
+        agents,
         args.network,
         seed=args.seed,
         time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
+        options=options,
     )
 
 
@@ -1084,12 +1187,19 @@ _COMMANDS: list[tuple[str, str, Callable[[argparse.ArgumentParser], Handler]]] =
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``cfopt`` argument parser with every subcommand."""
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``cfopt`` argument parser with every subcommand.
+
+    For ``cfopt run`` (``argv`` its command line), the parser also has the flags of the
+    algorithm ``argv`` names (from its :class:`heuristics.AlgorithmSpec`) and its help
+    lists the registered algorithms; the registry (and its entry points) is read only
+    then.
+    """
     parser = Parser(
         prog="cfopt",
         description="Optimisation-grounded verification of coalition formation for robot "
-        "collectives. Exit codes: 0 success, 2 bad input or usage, 1 internal error.",
+        "collectives. Exit codes: 0 success, 2 bad input or usage (also: your algorithm "
+        "failed), 1 internal error.",
     )
     parser.add_argument("--version", action="version", version=f"cfopt {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -1098,7 +1208,23 @@ def build_parser() -> argparse.ArgumentParser:
             name, help=summary, description=summary[0].upper() + summary[1:] + "."
         )
         sub.set_defaults(handler=add(sub))
+        if name == "run" and argv and argv[0] == "run":
+            _prepare_run(sub, argv[1:])
     return parser
+
+
+def _parse(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """``parser.parse_args(argv)``; an unknown flag of ``cfopt run`` points at the
+    algorithm's own help, which lists its flags."""
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        unknown = f"unrecognized arguments: {' '.join(extra)}"
+        if args.command == "run":
+            raise MissionError(
+                f"{unknown} (see 'cfopt run {args.algorithm} --help' for its options)"
+            )
+        parser.error(unknown)
+    return args
 
 
 class _Terminated(KeyboardInterrupt):
@@ -1174,7 +1300,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     _configure_streams()
     try:
         with _sigterm_as_interrupt():
-            args = build_parser().parse_args(argv)
+            argv = sys.argv[1:] if argv is None else list(argv)
+            args = _parse(build_parser(argv), argv)
             code = args.handler(args)
             sys.stdout.flush()
             return code

@@ -53,7 +53,7 @@ import sys
 import time
 import traceback
 from collections import deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -81,12 +81,14 @@ __all__ = [
     "audit_grid",
     "code_version",
     "describe_version",
+    "distributed_agents",
     "distributed_grid",
     "grid_from_file",
     "make_executor",
     "named_grid",
     "product_grid",
     "quick_grid",
+    "replay_command",
     "resolve_grid",
     "run_sweep",
     "run_trial",
@@ -476,13 +478,30 @@ def _percent(part: float, whole: float) -> float:
 def _run_heuristic(cell: GridCell, spec: Any, algorithm: str, mission: Any, seed: int) -> Any:
     if cell.network is None:
         return spec(mission, seed=seed)
-    from heuristics.registry import ALGORITHMS
     from heuristics.simulate import simulate
 
-    # a registered algorithm by its name (the transport looks its protocol up), any other
-    # by its protocol object
-    agents = algorithm if ALGORITHMS.get(algorithm) is spec else spec.make_protocol()
-    return simulate(mission, agents, cell.network, seed=seed)
+    agents, options = distributed_agents(algorithm)
+    return simulate(mission, agents, cell.network, seed=seed, options=options)
+
+
+def distributed_agents(
+    algorithm: str, options: Mapping[str, Any] | None = None
+) -> tuple[Any, dict[str, Any] | None]:
+    """What a transport (:func:`heuristics.simulate`, :func:`heuristics.mpi_run`) is
+    handed to run ``algorithm``'s agents with ``options``: a registered algorithm's name
+    and the options (the transport builds its protocol), or for a ``MODULE:ATTR``
+    reference its protocol built here (:meth:`heuristics.AlgorithmSpec.make_protocol`)
+    and ``None``.
+
+    >>> distributed_agents("sda", {"eps": 0.5})
+    ('sda', {'eps': 0.5})
+    """
+    from heuristics.registry import ALGORITHMS, get_algorithm
+
+    spec = get_algorithm(algorithm)
+    if ALGORITHMS.get(algorithm) is spec:
+        return algorithm, dict(options or {})
+    return spec.make_protocol(**dict(options or {})), None
 
 
 def _number_text(value: float) -> str:

@@ -24,7 +24,28 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["FIGURES", "Figure", "figures"]
+__all__ = [
+    "CENTRALIZED_ALGORITHMS",
+    "COMMUNICATION_ALGORITHM",
+    "DISTRIBUTED_ALGORITHMS",
+    "FIGURES",
+    "GRAPE_S_ALGORITHMS",
+    "PAIRWISE_ALGORITHM",
+    "Figure",
+    "figures",
+]
+
+#: The algorithms of the seed's centralized evaluation and of its distributed one
+#: (registry names; RACHNA_dt had no distributed agents).
+CENTRALIZED_ALGORITHMS = ("grape-s", "pair-grape-s", "sda", "rachna-dt")
+DISTRIBUTED_ALGORITHMS = ("grape-s", "pair-grape-s", "sda")
+#: Its GRAPE-S variants, whose iterations it counts (about ``n`` a run, §5.1.1 and §6.1).
+GRAPE_S_ALGORITHMS = ("grape-s", "pair-grape-s")
+#: Its algorithm with the pairwise step: run on the 10:5 composition only, and the runs
+#: that needed the step counted (§5.1 and §6.1).
+PAIRWISE_ALGORITHM = "pair-grape-s"
+#: Its algorithm whose communication §5.1.2 gives per collective size.
+COMMUNICATION_ALGORITHM = "grape-s"
 
 
 @dataclass(frozen=True)

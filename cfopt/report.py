@@ -190,7 +190,10 @@ def load_trials(
 ) -> tuple[list[Trial], str]:
     """The trials of one code version of a store (default: the most recent one).
 
-    Raises :class:`cfopt.MissionError` for a missing or empty store.
+    Of an algorithm stored under several versions (:attr:`Trial.algorithm_version`: a
+    sweep after the algorithm's version changed), only the trials of the version stored
+    most recently are read, as only the newest code version is by default.  Raises
+    :class:`cfopt.MissionError` for a missing or empty store.
     """
     with ResultStore(store, create=False) as db:
         versions = db.code_versions()
@@ -203,7 +206,18 @@ def load_trials(
                 f"{os.fspath(store)}: no trials of code version {version!r} "
                 f"(stored: {', '.join(versions)})"
             )
-        return db.trials(version), version
+        return newest_versions(db.trials(version)), version
+
+
+def newest_versions(trials: Sequence[Trial]) -> list[Trial]:
+    """``trials`` without those of an algorithm's older versions: per algorithm, only
+    the :attr:`Trial.algorithm_version` of its most recently finished trial is kept."""
+    newest: dict[str, tuple[float, str]] = {}
+    for t in trials:
+        seen = newest.get(t.algorithm)
+        if seen is None or t.finished > seen[0]:
+            newest[t.algorithm] = (t.finished, t.algorithm_version)
+    return [t for t in trials if t.algorithm_version == newest[t.algorithm][1]]
 
 
 def _code_description(store: str, version: str) -> str:

@@ -49,7 +49,15 @@ import numpy as np
 from cfopt._jsonio import make_directory, output_target
 from cfopt._progress import Progress
 from cfopt.errors import MissionError, plural
-from cfopt.paper import FIGURES, Figure
+from cfopt.paper import (
+    CENTRALIZED_ALGORITHMS,
+    COMMUNICATION_ALGORITHM,
+    DISTRIBUTED_ALGORITHMS,
+    FIGURES,
+    GRAPE_S_ALGORITHMS,
+    PAIRWISE_ALGORITHM,
+    Figure,
+)
 from cfopt.store import EXACT, Trial, check_store_path
 
 __all__ = [
@@ -66,9 +74,6 @@ __all__ = [
 ]
 
 AGREE, DIFFERS, NOT_COMPARABLE, NO_TRIALS = "agree", "differs", "not comparable", "no trials"
-#: The seed's centralized and distributed algorithms (registry names).
-CENTRALIZED_ALGORITHMS = ("grape-s", "pair-grape-s", "sda", "rachna-dt")
-DISTRIBUTED_ALGORITHMS = ("grape-s", "pair-grape-s", "sda")
 #: Missions per cell in the seed (and the default here).
 PAPER_MISSIONS = 25
 #: The seed's viability targets: above 95 % utility, under 5 minutes.
@@ -549,7 +554,7 @@ def _test_scope(f: Figure) -> tuple[str, Sequence[str], str | None, str]:
     parts = f.measure.split("_")
     if parts[0] == "friedman":
         ten_five = (f.service_types, f.services_per_robot) == (10, 5)
-        algorithms = CENTRALIZED_ALGORITHMS if ten_five else ("grape-s", "sda", "rachna-dt")
+        algorithms = tuple(a for a in CENTRALIZED_ALGORITHMS if ten_five or a != PAIRWISE_ALGORITHM)
         return "friedman", algorithms, None, parts[2]
     factor = "percent_tasks" if f.measure.endswith("percent_tasks") else "robots"
     return "kruskal", (f.algorithm,), factor, parts[2]
@@ -719,7 +724,7 @@ def iteration_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]
     ]  # fmt: skip
     groups: dict[tuple[Any, ...], list[Trial]] = defaultdict(list)
     for t in trials:
-        if t.algorithm in ("grape-s", "pair-grape-s") and t.iterations is not None:
+        if t.algorithm in GRAPE_S_ALGORITHMS and t.iterations is not None:
             evaluation = "centralized" if t.network is None else "distributed"
             key = (evaluation, t.algorithm, t.service_types, t.services_per_robot, t.robots)
             groups[key].append(t)
@@ -747,7 +752,7 @@ def pairwise_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
     }
     groups: dict[tuple[Any, ...], list[Trial]] = defaultdict(list)
     for t in trials:
-        if t.algorithm == "pair-grape-s" and t.load == 1:
+        if t.algorithm == PAIRWISE_ALGORITHM and t.load == 1:
             evaluation = "centralized" if t.network is None else "distributed"
             groups[(evaluation, t.service_types, t.services_per_robot)].append(t)
     rows = []
@@ -855,7 +860,7 @@ def communication_models(trials: Sequence[Trial]) -> dict[str, Any]:
         f.robots: f.value
         for f in FIGURES
         if f.measure == "communication_mb"
-        and f.algorithm == "grape-s"
+        and f.algorithm == COMMUNICATION_ALGORITHM
         and f.robots
         and f.evaluation == "centralized"
         and f.statistic == "value"
@@ -863,7 +868,7 @@ def communication_models(trials: Sequence[Trial]) -> dict[str, Any]:
     sizes = sorted(published)
     chosen = [
         t for t in trials
-        if t.algorithm == "grape-s" and t.network is None and t.load == 1
+        if t.algorithm == COMMUNICATION_ALGORITHM and t.network is None and t.load == 1
         and (t.service_types, t.services_per_robot) != (10, 5)
     ]  # fmt: skip
     paper = [published[n] for n in sizes]
