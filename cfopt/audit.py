@@ -201,6 +201,15 @@ def _registered_job(base: str, claim_id: str) -> _ClaimJob:
     return _ClaimJob(claim_id, None, None, _source_version(base, claims.claim_origin(claim_id)))
 
 
+def _audited(extra: Sequence[str] | None) -> tuple[str, ...] | None:
+    """The audit's algorithms: every registered one, then ``extra`` (``None``: the default)."""
+    if not extra:
+        return None
+    from heuristics.registry import algorithm_names
+
+    return tuple(dict.fromkeys((*algorithm_names(), *extra)))
+
+
 def _check_directory(directory: Path, files: list[str], force: bool) -> None:
     output_target(directory, overwrite=force, directory=True)
     if force:
@@ -293,6 +302,7 @@ def run_audit(
     budget: int | None = None,
     seed: int = 0,
     claims: Sequence[str] | None = None,
+    algorithms: Sequence[str] | None = None,
 ) -> AuditResult:
     """The main job: the seed's claims checked and the optimal-gap report, in ``directory``.
 
@@ -323,6 +333,10 @@ def run_audit(
         (``"L1"``) or ``MODULE:ATTR`` (see :func:`proofs.claims.resolve_claims`; MODULE
         imported with the current directory first on ``sys.path``, in every worker too).
         Default: every registered claim (cfopt's, then the entry points').
+    algorithms : sequence of str, optional
+        Algorithms put on the grid beside the registered ones (every registered algorithm
+        runs anyway): names or ``MODULE:ATTR`` references (:func:`heuristics.get_algorithm`);
+        each gets the optimal gap, runtime and (where it reports it) communication.
 
     Returns
     -------
@@ -355,7 +369,7 @@ def run_audit(
     progress = Progress.coerce(progress)
     make_directory(directory)
     store = directory / AUDIT_STORE
-    sweep = None if claims_only else Sweep(cells=cells, missions=missions)
+    sweep = None if claims_only else Sweep(cells, missions, _audited(algorithms))
     with store_lock(store, "cfopt audit"):
         checks = _Claims(store, budget, seed, directory / HYPOTHESIS_HOME, progress, jobs)
         own = executor is None

@@ -328,6 +328,16 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         "imported with the current directory first on sys.path; e.g. --claims L1 --claims "
         "my_claims:CLAIMS. The gap report still runs unless --claims-only",
     )
+    sub.add_argument(
+        "--algorithm",
+        action="append",
+        dest="algorithms",
+        default=None,
+        metavar="NAME",
+        help="also put this algorithm on the audit grid, beside the registered ones (which "
+        "it runs anyway): a registered name or MODULE:ATTR (as 'cfopt run' takes); "
+        "repeatable",
+    )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_argument(
         "-o",
@@ -346,10 +356,13 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         from cfopt._progress import Progress
         from cfopt.audit import run_audit
 
+        if args.algorithms and args.claims_only:
+            raise MissionError("--algorithm: not with --claims-only (no grid is run)")
         result = run_audit(
             args.output,
             quick=args.quick,
             claims_only=args.claims_only,
+            algorithms=args.algorithms,
             workers=args.workers,
             force=args.force,
             progress=Progress.auto(quiet=args.quiet),
@@ -935,21 +948,44 @@ def _add_check(sub: argparse.ArgumentParser) -> Handler:
 
 
 def _report_failures(outcome: Any, claim_failures: Sequence[tuple[str, str]] = ()) -> int:
-    """Print the tracebacks of trials and claim checks that raised; exit 1 if any did."""
+    """Print the trials and claim checks that did not finish; the exit code.
+
+    1 when cfopt failed (a trial or a claim check raised: a bug, or workers died), with
+    the tracebacks; 2 when only users' algorithms raised -- their failures, not cfopt's --
+    each with the commands that replay it; 0 when nothing failed.
+    """
+    from cfopt.experiments import ALGORITHM_FAILED
+
     trial_failures = list(outcome.failures) if outcome is not None else []
-    for cell, seed, algorithm, trace in trial_failures:
+    theirs = [f for f in trial_failures if f[3].startswith(ALGORITHM_FAILED)]
+    ours = [f for f in trial_failures if not f[3].startswith(ALGORITHM_FAILED)]
+    for cell, seed, algorithm, record in theirs:
+        message, _, replay = record[len(ALGORITHM_FAILED) :].partition("\nreplay: ")
+        sys.stderr.write(
+            f"trial {algorithm} on {cell} (mission seed {seed}) failed: {message}\n"
+            f"  replay: {replay}\n"
+        )
+    for cell, seed, algorithm, trace in ours:
         sys.stderr.write(f"trial {algorithm} on {cell} (mission seed {seed}) failed:\n{trace}\n")
     for claim_id, trace in claim_failures:
         sys.stderr.write(f"claim {claim_id}: the check failed:\n{trace}\n")
-    if trial_failures or claim_failures:
-        died = sum(trace.startswith("WorkerDied:") for *_, trace in trial_failures)
-        why = "(a bug)" if died < len(trial_failures) + len(claim_failures) else "(workers died)"
+    if ours or claim_failures:
+        died = sum(trace.startswith("WorkerDied:") for *_, trace in ours)
+        why = "(a bug)" if died < len(ours) + len(claim_failures) else "(workers died)"
         sys.stderr.write(
             f"{plural(len(trial_failures), 'trial')} and "
             f"{plural(len(claim_failures), 'claim check')} failed {why}; finished trials "
             "are kept and the next run retries the rest\n"
         )
         return EXIT_BUG
+    if theirs:
+        names = sorted({algorithm for _, _, algorithm, _ in theirs})
+        _error(
+            f"{plural(len(theirs), 'trial')} of {', '.join(names)} failed: the algorithm "
+            "raised (above, each with the commands that replay it); they are not stored and "
+            "the next run retries them, the other trials are kept"
+        )
+        return EXIT_BAD_INPUT
     return EXIT_OK
 
 

@@ -82,6 +82,7 @@ __all__ = [
     "ALGORITHMS",
     "ENTRY_POINT_GROUP",
     "AlgorithmFailed",
+    "AlgorithmRegistry",
     "AlgorithmSpec",
     "Option",
     "Stability",
@@ -225,7 +226,7 @@ class Option:
     def check(self, value: Any, where: str | None = None) -> Any:
         """``value`` if it is of this option's type (and among its choices);
         :class:`cfopt.MissionError` naming the option (or ``where``) otherwise."""
-        place = where or self.name
+        place = self.name if where is None else require_text("where", where)
         if not _fits(value, self.type):
             what = {bool: "a bool (True or False)", int: "a whole number", float: "a number"}
             raise MissionTypeError(
@@ -573,11 +574,11 @@ def _resolve(reference: str, directory: str | None) -> _Reference:
             f"{type(value).__name__}"
         )
     (spec,) = _as_specs(value, reference, name=reference)
-    known = _REGISTRY.get_spec(spec.name)
+    known = ALGORITHMS.get(spec.name)
     if known is not None and known != spec:
         raise MissionError(
-            f"{reference}: names its algorithm {spec.name!r}, which is already registered "
-            f"({_REGISTRY.origin(spec.name)}); give it another name"
+            f"{reference}: names its algorithm {spec.name!r}, which is already registered; "
+            "give it another name"
         )
     found = _Reference(spec, _found_in(loaded, module) or folder)
     _REFERENCES[(reference, folder)] = found
@@ -602,15 +603,33 @@ def algorithm_directory(name: str) -> str | None:
 
 
 # ---------------------------------------------------------------------- registry
-class _Registry(Mapping[str, AlgorithmSpec]):
-    """Name -> spec: cfopt's own, then the entry points' (loaded on first use), then those
-    of :func:`register_algorithm`.  Read-only as a mapping."""
+class AlgorithmRegistry(Mapping[str, AlgorithmSpec]):
+    """Name -> spec: ``shipped`` (cfopt's own), then the entry points of
+    ``entry_point_group`` (loaded on first use; ``None``: none), then those of
+    :meth:`register`.  Read-only as a mapping.
 
-    def __init__(self, shipped: Sequence[AlgorithmSpec], group: str) -> None:
-        self._specs = {s.name: s for s in shipped}
+    :data:`ALGORITHMS` is the one every command uses; a fresh registry is useful in tests
+    (``monkeypatch.setattr(heuristics.registry, "ALGORITHMS", AlgorithmRegistry())``:
+    :func:`register_algorithm`, :func:`get_algorithm` and :func:`algorithm_names` use
+    whichever is :data:`ALGORITHMS`).
+    """
+
+    def __init__(
+        self,
+        shipped: Sequence[AlgorithmSpec] | None = None,
+        entry_point_group: str | None = ENTRY_POINT_GROUP,
+    ) -> None:
+        specs = SHIPPED if shipped is None else shipped
+        if not all(isinstance(spec, AlgorithmSpec) for spec in specs):
+            raise MissionTypeError(
+                f"shipped: must be a sequence of heuristics.AlgorithmSpec, got {shown(specs)}"
+            )
+        if entry_point_group is not None:
+            require_text("entry_point_group", entry_point_group)
+        self._specs = {s.name: s for s in specs}
         self._origins = dict.fromkeys(self._specs, "by cfopt")
-        self._group = group
-        self._loaded = False
+        self._group = entry_point_group
+        self._loaded = entry_point_group is None
 
     def _all(self) -> dict[str, AlgorithmSpec]:
         if not self._loaded:
@@ -633,9 +652,16 @@ class _Registry(Mapping[str, AlgorithmSpec]):
             except Exception as exc:
                 raise MissionError(f"{where}: cannot be loaded: {_described(exc)}") from None
             for spec in _as_specs(value, where, name=ep.name):
-                self.add(spec, where, f"by {where}")
+                self._add(spec, where, f"by {where}")
 
-    def add(self, spec: AlgorithmSpec, where: str, origin: str) -> AlgorithmSpec:
+    def register(self, spec: AlgorithmSpec) -> AlgorithmSpec:
+        """Add ``spec`` (the same spec again changes nothing); returns it.  A name taken
+        by another algorithm, or with ``:``, is a :class:`cfopt.MissionError`."""
+        if not isinstance(spec, AlgorithmSpec):
+            raise MissionTypeError(f"spec: must be a heuristics.AlgorithmSpec, got {shown(spec)}")
+        return self._add(spec, f"register_algorithm({spec.name!r})", "by register_algorithm")
+
+    def _add(self, spec: AlgorithmSpec, where: str, origin: str) -> AlgorithmSpec:
         specs = self._all()
         if ":" in spec.name:
             raise MissionError(f"{where}: name {spec.name!r}: a registered name has no ':'")
@@ -649,12 +675,12 @@ class _Registry(Mapping[str, AlgorithmSpec]):
         self._origins.setdefault(spec.name, origin)
         return spec
 
-    def get_spec(self, name: str) -> AlgorithmSpec | None:
-        return self._all().get(name)
-
-    def origin(self, name: str) -> str:
+    def origin(self, name: str) -> str | None:
+        """Who registered ``name``: ``"by cfopt"``, ``"by entry point ..."`` or ``"by
+        register_algorithm"``; ``None`` when nobody did."""
+        require_text("name", name)
         self._all()
-        return self._origins.get(name, "by register_algorithm")
+        return self._origins.get(name)
 
     def __getitem__(self, key: str) -> AlgorithmSpec:
         return self._all()[key]
@@ -748,12 +774,11 @@ SHIPPED: tuple[AlgorithmSpec, ...] = (
     ),
 )  # fmt: skip
 _SHIPPED = {s.name: s for s in SHIPPED}
-_REGISTRY = _Registry(SHIPPED, ENTRY_POINT_GROUP)
 
 #: Name -> :class:`AlgorithmSpec`, a read-only live view: the seed's four algorithms,
 #: cfopt's own, the installed packages' (entry points ``cfopt.algorithms``, loaded on
 #: first use) and those of :func:`register_algorithm`.
-ALGORITHMS: Mapping[str, AlgorithmSpec] = _REGISTRY
+ALGORITHMS: Mapping[str, AlgorithmSpec] = AlgorithmRegistry()
 
 
 def register_algorithm(
@@ -810,7 +835,10 @@ def register_algorithm(
         raise MissionTypeError(
             f"algorithm: must be a heuristics.AlgorithmSpec or a callable, got {shown(algorithm)}"
         )
-    return _REGISTRY.add(spec, f"register_algorithm({spec.name!r})", "by register_algorithm")
+    registry = ALGORITHMS
+    if not isinstance(registry, AlgorithmRegistry):
+        raise MissionError("register_algorithm: heuristics.registry.ALGORITHMS is not a registry")
+    return registry.register(spec)
 
 
 def algorithm_names() -> list[str]:

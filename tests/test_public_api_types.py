@@ -64,6 +64,8 @@ INSTANCES: dict[type, Any] = {
     proofs.Move: MOVE,
     proofs.NashViolation: proofs.NashViolation(robot=0, source=(0, 0), target=None),
     proofs.PairwiseViolation: proofs.PairwiseViolation(robots=(0,), moves=(MOVE,)),
+    heuristics.AlgorithmSpec: heuristics.get_algorithm("sda"),
+    heuristics.Option: heuristics.get_algorithm("sda").options[0],
 }
 #: Where the files the calls read and write are (the calls run in it); removed at exit.
 FOLDER = Path(tempfile.mkdtemp(prefix="cfopt-api-types-"))
@@ -104,6 +106,9 @@ REQUIRED_BY_CALLABLE: dict[str, dict[str, Any]] = {
     },
 }
 REQUIRED_BY_CALLABLE["require_mission"] = {"value": MISSION}
+REQUIRED_BY_CALLABLE["Option.check"] = {"value": 1.0}  # sda's eps
+# a spec registered already: registering it again changes nothing
+REQUIRED_BY_CALLABLE["register_algorithm"] = {"algorithm": heuristics.get_algorithm("grape-s")}
 REQUIRED_BY_CALLABLE["generate_with_witness"] = REQUIRED_BY_CALLABLE["generate_mission"]
 # a claim registered already: registering the same object again changes nothing
 REQUIRED_BY_CALLABLE["register_claim"] = {"claim": proofs.claims.CLAIMS["G1"]}
@@ -112,6 +117,7 @@ ALIASES = {
     "get_algorithm.name": "algorithm",
     "run_algorithm.name": "algorithm",
     "require_mission.value": "mission",
+    "Option.check.value": "eps",  # a value is named by its option (sda's eps here)
     # a mission's arrays and ids are checked at the places of its file format
     "Mission.robot_ids": "robots",
     "Mission.task_ids": "tasks",
