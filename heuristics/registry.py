@@ -562,7 +562,7 @@ def _resolve(reference: str, directory: str | None) -> _Reference:
     cached = _REFERENCES.get((reference, folder))
     if cached is not None:
         return cached
-    module, attribute = _split_reference(reference, reference)
+    module, attribute = _split_reference(reference, "algorithm")
     try:
         loaded = _import(module, folder)
     except Exception as exc:
