@@ -1065,7 +1065,8 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         type=_number_list(str),
         default=None,
         metavar="A[,A...]",
-        help="heuristics to run (default: all registered); the exact solve always runs",
+        help="heuristics to run: registered names or MODULE:ATTR (your own, as 'cfopt run' "
+        "takes them; default: all registered); the exact solve always runs",
     )
     sub.add_argument(
         "--base-seed",
