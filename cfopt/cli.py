@@ -65,14 +65,23 @@ def _whole_number(low: int) -> Callable[[str], int]:
     return parse
 
 
-def _positive_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
+def _number(*, positive: bool) -> Callable[[str], float]:
+    """A number option's parser: finite, and > 0 when ``positive``."""
+    what = "a finite number > 0" if positive else "a finite number"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        if not math.isfinite(value) or (positive and value <= 0):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return value
+
+    return parse
+
+
+_positive_number = _number(positive=True)
 
 
 def time_limit_type(text: str) -> float:
@@ -591,18 +600,8 @@ def _option_value(option: Any) -> Callable[[str], Any]:
     if option.type is int:
         return _whole_number(-(10**100))
     if option.type is float:
-        return _finite_number
+        return _number(positive=False)
     return str
-
-
-def _finite_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
 
 
 def _option_help(option: Any, distributed: str) -> str:
