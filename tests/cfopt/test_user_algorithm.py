@@ -307,7 +307,7 @@ def test_audit_puts_a_users_algorithm_on_the_grid(
     import cfopt.experiments
     import proofs.claims
     from cfopt.cli import main
-    from proofs.claims import Verdict, VerdictKind
+    from proofs.claimkit import Verdict, VerdictKind
 
     def claims(*, budget=25, seed=0, ids=None):
         return [Verdict(i, "holds", VerdictKind.HOLDS, budget, None, 0.01) for i in ids]
