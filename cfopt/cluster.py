@@ -51,9 +51,9 @@ from cfopt.experiments import ExecutorFailed, WorkerDied
 
 __all__ = [
     "CONNECT_TIMEOUT",
-    "WORKER_TIMEOUT",
     "INSTALL_HINT",
     "SCHEMES",
+    "WORKER_TIMEOUT",
     "DaskExecutor",
     "SchedulerLost",
     "SchedulerSpec",
