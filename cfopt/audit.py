@@ -114,7 +114,8 @@ def check_claim(
         return _verdict(claim_id, budget, seed, reference, directory)
     from hypothesis.configuration import set_hypothesis_home_dir, storage_directory
 
-    previous = storage_directory(intent_to_write=False).path
+    current = storage_directory(intent_to_write=False)
+    previous = getattr(current, "path", current)  # a Path before hypothesis 6.1xx
     set_hypothesis_home_dir(hypothesis_home)
     try:
         return _verdict(claim_id, budget, seed, reference, directory)

@@ -461,6 +461,18 @@ def _wait_for(condition: Callable[[], bool], seconds: float = 60) -> None:
         time.sleep(0.05)
 
 
+def _workers(pid: int) -> set[int]:
+    """The children of ``pid`` that are forks of it (pool workers share its command line;
+    a program it runs, e.g. one numpy starts while it is imported, does not)."""
+
+    def command(p: int) -> bytes:
+        with contextlib.suppress(OSError):
+            return Path(f"/proc/{p}/cmdline").read_bytes()
+        return b""
+
+    return {child for child in _children(pid) if command(child) == command(pid)}
+
+
 def _children(pid: int) -> set[int]:
     found = set()
     for entry in Path("/proc").iterdir():
@@ -526,7 +538,7 @@ def test_ctrl_c_as_the_workers_start_is_one_line(tmp_path: Path, workers_seen: i
     the parent alone answers it, whatever state the workers are in."""
     store = tmp_path / "s.sqlite"
     process = _start(*SWEEP, str(store), cwd=tmp_path)
-    _wait_for(lambda: len(_children(process.pid)) >= workers_seen, seconds=60)
+    _wait_for(lambda: len(_workers(process.pid)) >= workers_seen, seconds=60)
     os.killpg(process.pid, signal.SIGINT)
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
