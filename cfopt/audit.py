@@ -100,6 +100,7 @@ def check_claim(
     *,
     reference: str | None = None,
     directory: str | None = None,
+    algorithm: str | None = None,
 ) -> dict[str, Any]:
     """One claim's verdict, as the JSON object of ``Verdict.to_dict()``.
 
@@ -107,30 +108,42 @@ def check_claim(
     store) as JSON and is rebuilt with ``Verdict.from_dict``.  The claim is looked up in
     :data:`proofs.claims.CLAIMS` (which loads the entry points in this process), or, given
     ``reference`` (``MODULE:ATTR``), resolved here with ``directory`` first on
-    ``sys.path``.  ``hypothesis_home`` is where hypothesis may keep its cache (default:
-    its own default, ``.hypothesis`` in the current folder).
+    ``sys.path``, or, given ``algorithm`` (a name or ``MODULE:ATTR``), among that
+    algorithm's generic claims (:func:`proofs.claims.algorithm_claims`, resolved with
+    ``directory`` first).  ``hypothesis_home`` is where hypothesis may keep its cache
+    (default: its own default, ``.hypothesis`` in the current folder).
     """
+    where = (reference, directory, algorithm)
     if hypothesis_home is None:
-        return _verdict(claim_id, budget, seed, reference, directory)
+        return _verdict(claim_id, budget, seed, *where)
     from hypothesis.configuration import set_hypothesis_home_dir, storage_directory
 
     current = storage_directory(intent_to_write=False)
     previous = getattr(current, "path", current)  # a Path before hypothesis 6.1xx
     set_hypothesis_home_dir(hypothesis_home)
     try:
-        return _verdict(claim_id, budget, seed, reference, directory)
+        return _verdict(claim_id, budget, seed, *where)
     finally:
         set_hypothesis_home_dir(previous)
 
 
 def _verdict(
-    claim_id: str, budget: int, seed: int, reference: str | None, directory: str | None
+    claim_id: str,
+    budget: int,
+    seed: int,
+    reference: str | None,
+    directory: str | None,
+    algorithm: str | None = None,
 ) -> dict[str, Any]:
     from proofs import claims
 
-    if reference is None:
+    if algorithm is not None:
+        reference = f"--algorithm {algorithm}"
+        found = {c.id: c for c in claims.algorithm_claims(algorithm, directory=directory)}
+    elif reference is None:
         return claims.audit_claims(budget=budget, seed=seed, ids=[claim_id])[0].to_dict()
-    found = {c.id: c for c in claims.resolve_claims(reference, directory=directory)}
+    else:
+        found = {c.id: c for c in claims.resolve_claims(reference, directory=directory)}
     if claim_id not in found:
         raise MissionError(f"{reference}: no longer gives claim {claim_id!r}")
     return found[claim_id].check(budget, seed).to_dict()
@@ -144,8 +157,11 @@ class _ClaimJob:
     reference: str | None  # MODULE:ATTR, or None: a registered claim
     directory: str | None  # where MODULE is imported from
     version: str
+    algorithm: str | None = None  # a generic claim of this algorithm (name or MODULE:ATTR)
 
     def kwargs(self) -> dict[str, Any]:
+        if self.algorithm is not None:
+            return {"algorithm": self.algorithm, "directory": self.directory}
         if self.reference is None:
             return {}
         return {"reference": self.reference, "directory": self.directory}
@@ -194,6 +210,59 @@ def _claim_jobs(chosen: Sequence[str] | None) -> list[_ClaimJob]:
     if not jobs:
         raise MissionError("claims: no claims to check", cli="--claims: no claims to check")
     return jobs
+
+
+def _generic_jobs(algorithms: Sequence[str]) -> list[_ClaimJob]:
+    """The generic claims of each algorithm (a name or ``MODULE:ATTR``, resolved from the
+    current directory; a worker rebuilds them from the name).  Their version adds the
+    spec's name and version and, for an algorithm not shipped with cfopt, a digest of its
+    module's source (an edited algorithm is checked again)."""
+    from cfopt.experiments import code_version
+    from heuristics import get_algorithm
+    from proofs import claims
+
+    base, folder = code_version("claims"), os.getcwd()
+    jobs = []
+    for name in dict.fromkeys(algorithms):
+        try:
+            spec = get_algorithm(name, directory=folder)
+            spec.stability_checker()  # a checker that does not import: an error now
+            found = claims.algorithm_claims(name, directory=folder)
+        except MissionError as exc:
+            raise MissionError(
+                f"algorithms: {exc}", cli=f"--algorithm: {exc.cli_message}"
+            ) from None
+        module = _algorithm_module(name, spec)
+        version = f"{_source_version(base, module)}+{spec.name}@{spec.version}"
+        where = folder if ":" in name else None
+        jobs += [_ClaimJob(c.id, None, where, version, name) for c in found]
+    return jobs
+
+
+def _algorithm_module(name: str, spec: Any) -> str | None:
+    """The module an algorithm not shipped with cfopt comes from (``None`` for cfopt's)."""
+    if spec.shipped:
+        return None
+    return name.partition(":")[0] if ":" in name else getattr(spec.run, "__module__", None)
+
+
+def _audit_jobs(
+    claims: Sequence[str] | None, algorithms: Sequence[str] | None, claims_only: bool
+) -> list[_ClaimJob]:
+    """The claims an audit checks: the registered ones (or ``claims``), then the generic
+    claims of ``algorithms``; with ``claims_only`` and algorithms but no ``claims``, the
+    generic ones alone."""
+    generic = _generic_jobs(algorithms or ())
+    chosen = [] if (claims is None and claims_only and generic) else _claim_jobs(claims)
+    known = {job.claim_id for job in chosen}
+    for job in generic:
+        if job.claim_id in known:
+            raise MissionError(
+                f"algorithms: claim {job.claim_id!r} is given twice",
+                cli=f"--algorithm: claim {job.claim_id!r} is given twice",
+            )
+        known.add(job.claim_id)
+    return [*chosen, *generic]
 
 
 def _registered_job(base: str, claim_id: str) -> _ClaimJob:
@@ -337,7 +406,11 @@ def run_audit(
     algorithms : sequence of str, optional
         Algorithms put on the grid beside the registered ones (every registered algorithm
         runs anyway): names or ``MODULE:ATTR`` references (:func:`heuristics.get_algorithm`);
-        each gets the optimal gap, runtime and (where it reports it) communication.
+        each gets the optimal gap, runtime and (where it reports it) communication, and
+        its generic claims (:func:`proofs.claims.algorithm_claims`: valid, stable as its
+        spec declares, 95 % of the optimum, scaling) are checked after the others, in the
+        same verdicts, store and counterexamples.  With ``claims_only`` and no ``claims``
+        only those generic claims are checked.
 
     Returns
     -------
@@ -365,7 +438,7 @@ def run_audit(
     missions = missions or (QUICK_MISSIONS if quick else AUDIT_MISSIONS)
     budget = budget or (QUICK_BUDGET if quick else AUDIT_BUDGET)
     report_files = [] if claims_only else report_names_for(cells, claims=True)
-    jobs = _claim_jobs(None if claims is None else list(claims))
+    jobs = _audit_jobs(None if claims is None else list(claims), algorithms, claims_only)
     _check_directory(directory, report_files, force)
     progress = Progress.coerce(progress)
     make_directory(directory)

@@ -344,8 +344,10 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         default=None,
         metavar="NAME",
         help="also put this algorithm on the audit grid, beside the registered ones (which "
-        "it runs anyway): a registered name or MODULE:ATTR (as 'cfopt run' takes); "
-        "repeatable",
+        "it runs anyway), and check its generic claims (NAME.valid, NAME.stable as its spec "
+        "declares, NAME.95pct of the optimum, NAME.scaling) in the verdict table: a "
+        "registered name or MODULE:ATTR (as 'cfopt run' takes); repeatable. With "
+        "--claims-only and no --claims, only these claims are checked",
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     sub.add_argument(
@@ -365,8 +367,6 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         from cfopt._progress import Progress
         from cfopt.audit import run_audit
 
-        if args.algorithms and args.claims_only:
-            raise MissionError("--algorithm: not with --claims-only (no grid is run)")
         result = run_audit(
             args.output,
             quick=args.quick,

@@ -46,12 +46,14 @@ from cfopt import MissionError
 from proofs.claimkit import Claim, Verdict
 from proofs.claims_cfopt import cfopt_claims
 from proofs.claims_distributed import distributed_claims
+from proofs.claims_generic import algorithm_claims as generic_claims
 from proofs.claims_seed import seed_claims
 
 __all__ = [
     "CLAIMS",
     "ENTRY_POINT_GROUP",
     "ClaimRegistry",
+    "algorithm_claims",
     "audit_claims",
     "claim_origin",
     "format_verdict_table",
@@ -253,6 +255,24 @@ def resolve_claims(
             )
         seen.add(claim.id)
     return claims
+
+
+def algorithm_claims(
+    algorithm: str, *, directory: str | os.PathLike[str] | None = None
+) -> list[Claim]:
+    """The generic claims of the algorithm ``algorithm`` names, for ``cfopt audit
+    --algorithm NAME`` (:func:`proofs.claims_generic.algorithm_claims`: valid, stable as
+    its spec declares, 95 % of the optimum, scaling).
+
+    ``algorithm`` is a registered name or ``MODULE:ATTR``, resolved by
+    :func:`heuristics.get_algorithm` with ``directory`` (default: the current one) first
+    on ``sys.path``; an audit's workers call this with the same arguments to rebuild the
+    claims.  An unknown name or a reference that does not resolve is
+    :class:`cfopt.MissionError`.
+    """
+    from heuristics import get_algorithm
+
+    return generic_claims(get_algorithm(algorithm, directory=directory))
 
 
 # --------------------------------------------------------------------- the audit
