@@ -226,7 +226,7 @@ def _generic_jobs(algorithms: Sequence[str]) -> list[_ClaimJob]:
     for name in dict.fromkeys(algorithms):
         try:
             spec = get_algorithm(name, directory=folder)
-            spec.stability_checker()  # a checker that does not import: an error now
+            _import_checker(spec)
             found = claims.algorithm_claims(name, directory=folder)
         except MissionError as exc:
             raise MissionError(
@@ -237,6 +237,15 @@ def _generic_jobs(algorithms: Sequence[str]) -> list[_ClaimJob]:
         where = folder if ":" in name else None
         jobs += [_ClaimJob(c.id, None, where, version, name) for c in found]
     return jobs
+
+
+def _import_checker(spec: Any) -> None:
+    """Import a ``stability="own"`` spec's checker now: one that does not import is an
+    error of the command, not a counterexample of its claim."""
+    try:
+        spec.stability_checker()
+    except MissionError as exc:
+        raise MissionError(f"{spec.name}: its stability checker: {exc}") from None
 
 
 def _algorithm_module(name: str, spec: Any) -> str | None:

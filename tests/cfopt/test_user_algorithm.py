@@ -307,23 +307,40 @@ def test_audit_puts_a_users_algorithm_on_the_grid(
     import cfopt.experiments
     import proofs.claims
     from cfopt.cli import main
-    from proofs.claimkit import Verdict, VerdictKind
+    from proofs.claimkit import Claim, Scope, Verdict, VerdictKind
+    from proofs.claims_generic import claim_prefix
 
     def claims(*, budget=25, seed=0, ids=None):
         return [Verdict(i, "holds", VerdictKind.HOLDS, budget, None, 0.01) for i in ids]
+
+    class Holds:  # the generic claims' check, made instant (tests/proofs checks them)
+        def check(self, claim, n_missions, seed):
+            return VerdictKind.HOLDS, n_missions, None, ""
+
+    def generic(algorithm, *, directory=None):
+        name = claim_prefix(algorithm)
+        return [Claim(f"{name}.valid", "valid", "any", (algorithm,), Holds(), Scope.GENERALISATION)]
 
     cells = (GridCell(12, 20, 3, 2), GridCell(16, 20, 3, 2, load=1.25))
     monkeypatch.setattr(cfopt.experiments, "quick_grid", lambda: cells)
     monkeypatch.setattr(proofs.claims, "CLAIMS", {"H1": None})
     monkeypatch.setattr(proofs.claims, "audit_claims", claims)
+    monkeypatch.setattr(proofs.claims, "algorithm_claims", generic)
     monkeypatch.chdir(work)
     argv = ["audit", "--quick", "--workers", "1", "--json", "-o", "audit", "--quiet"]
     assert main([*argv, "--algorithm", "mod:fn", "--algorithm", "sda"]) == 0
-    gap = json.loads(capsys.readouterr().out)["gap_report"]
+    data = json.loads(capsys.readouterr().out)
+    gap = data["gap_report"]
     assert "mod:fn" in json.dumps(gap)
+    # beside the registered claims, each algorithm's generic ones, in the same verdicts
+    assert [v["id"] for v in data["claims"]] == ["H1", "mod-fn.valid", "sda.valid"]
     with sqlite3.connect(work / "audit" / "trials.sqlite") as db:
         names = {row[0] for row in db.execute("SELECT DISTINCT algorithm FROM trials")}
     assert {"mod:fn", "grape-s", "rachna-dt", "exact"} <= names  # beside the registered ones
     assert "mod:fn" in (work / "audit" / "report.md").read_text(encoding="utf-8")
-    assert main(["audit", "--claims-only", "--algorithm", "mod:fn", "-o", "a2"]) == 2
-    assert "--algorithm: not with --claims-only" in capsys.readouterr().err
+    assert "mod-fn.valid" in (work / "audit" / "claims.csv").read_text(encoding="utf-8")
+    # claims only: just the algorithms' generic claims; an unknown one is an error line
+    assert main(["audit", "--claims-only", "--algorithm", "mod:fn", "-o", "a2", "--json"]) == 0
+    assert [v["id"] for v in json.loads(capsys.readouterr().out)["claims"]] == ["mod-fn.valid"]
+    assert main(["audit", "--claims-only", "--algorithm", "nosuch", "-o", "a3"]) == 2
+    assert "error: --algorithm: unknown algorithm 'nosuch'" in capsys.readouterr().err
