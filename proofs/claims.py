@@ -272,7 +272,7 @@ def algorithm_claims(
     """
     from heuristics import get_algorithm
 
-    return generic_claims(get_algorithm(algorithm, directory=directory))
+    return generic_claims(get_algorithm(algorithm, directory=directory), reference=algorithm)
 
 
 # --------------------------------------------------------------------- the audit

@@ -68,7 +68,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cfopt import Assignment, ExactStatus, Mission, MissionError, solve_exact
-from cfopt.checks import require_bool, require_number
+from cfopt.checks import require_bool, require_number, require_text
 from cfopt.errors import MissionTypeError
 from proofs.claimkit import (
     ACHIEVABLE_FAMILY,
@@ -451,27 +451,40 @@ def _own_checker(spec: AlgorithmSpec) -> _Checker:
     return checker
 
 
-def _any_mission_claim(
-    id: str, statement: str, name: str, evaluate: Evaluator, exhaustive: bool, *labels: str
-) -> Claim:
-    return property_claim(
-        id,
-        statement,
-        ANY_FAMILY + (SMALL_SCOPE_FAMILY if exhaustive else ""),
-        (name,),
-        evaluate,
-        scope=Scope.GENERALISATION,
-        cells=grid_cells(ALL_COMPOSITIONS),
-        strategy=structural_missions(achievable=None),
-        summary=tally_summary(*labels),
-        exhaustive=small_scope if exhaustive else None,
-        sweep=ALL_COMPOSITIONS,
-    )
+@dataclass(frozen=True)
+class _Subject:
+    """The algorithm the claims are about: its spec, the name commands run it by."""
+
+    spec: AlgorithmSpec
+    run_as: str
+    exhaustive: bool
+
+    @property
+    def prefix(self) -> str:
+        return claim_prefix(self.spec.name)
+
+    def any_mission_claim(
+        self, kind: str, statement: str, evaluate: Evaluator, *labels: str
+    ) -> Claim:
+        return property_claim(
+            f"{self.prefix}.{kind}",
+            statement,
+            ANY_FAMILY + (SMALL_SCOPE_FAMILY if self.exhaustive else ""),
+            (self.run_as,),
+            evaluate,
+            scope=Scope.GENERALISATION,
+            cells=grid_cells(ALL_COMPOSITIONS),
+            strategy=structural_missions(achievable=None),
+            summary=tally_summary(*labels),
+            exhaustive=small_scope if self.exhaustive else None,
+            sweep=ALL_COMPOSITIONS,
+        )
 
 
 def algorithm_claims(
     spec: AlgorithmSpec,
     *,
+    reference: str | None = None,
     min_percent: float = MIN_PERCENT,
     max_exponent: float = MAX_EXPONENT,
     exhaustive: bool = True,
@@ -484,9 +497,13 @@ def algorithm_claims(
     spec : heuristics.AlgorithmSpec
         The algorithm (``heuristics.get_algorithm(NAME)``); its ``run`` is called
         directly, with ``seed=0``, so the claims see exactly what it returns.
+    reference : str, optional
+        The name commands run it by, when that is not the spec's name: the
+        ``MODULE:ATTR`` of a spec that is not registered.  The counterexamples name it
+        (``cfopt run REFERENCE MISSION --seed 0`` replays them).  Default: ``spec.name``.
     min_percent : float, default 95
         The share of the optimum (0 < ``min_percent`` <= 100) the third claim asks for;
-        its id is ``NAME.<min_percent>pct``.
+        its id is ``<prefix>.<min_percent>pct``.
     max_exponent : float, default 3
         The ceiling of the scaling claim's exponents in ``n`` (> 0).
     exhaustive : bool, default True
@@ -499,7 +516,7 @@ def algorithm_claims(
     list of proofs.claimkit.Claim
         Ids ``<prefix>.valid``, ``<prefix>.stable``, ``<prefix>.95pct``,
         ``<prefix>.scaling`` (:func:`claim_prefix` of the spec's name), each running the
-        spec's function wherever it runs the spec's name (``Claim.with_algorithm``
+        spec's function wherever it runs ``reference`` (``Claim.with_algorithm``
         substitutes another).
     """
     from heuristics import AlgorithmSpec
@@ -508,52 +525,59 @@ def algorithm_claims(
         raise MissionTypeError(
             f"spec: must be a heuristics.AlgorithmSpec, got {type(spec).__name__}"
         )
+    run_as = spec.name if reference is None else require_text("reference", reference)
     min_percent = require_number("min_percent", min_percent, above=0, maximum=100)
     max_exponent = require_number("max_exponent", max_exponent, above=0)
-    exhaustive = require_bool("exhaustive", exhaustive)
-    name, prefix = spec.name, claim_prefix(spec.name)
-    claims = [
-        _any_mission_claim(
-            f"{prefix}.valid",
-            f"{name} returns a valid assignment on every mission (each robot it assigns "
-            "performs a service it has, for a task requiring it, in one slot; checked by "
-            "proofs, not by the algorithm)",
-            name,
-            _valid,
-            exhaustive,
-            "raised",
-            "invalid",
-        )
-    ]
-    declared = _checker(spec)
-    if declared is not None:
-        promise, checker = declared
-        stable = _any_mission_claim(
-            f"{prefix}.stable",
-            f"{name}'s partition is {promise} on every mission, as its spec declares "
-            f"(stability {spec.stability.value!r})",  # type: ignore[union-attr]
-            name,
-            _stable(promise, checker),
-            exhaustive,
-            "unstable",
-        )
-        if spec.stability.value == "own":  # type: ignore[union-attr]
-            stable = replace(stable, method=_CheckerFirst(stable.method, checker))
+    subject = _Subject(spec, run_as, require_bool("exhaustive", exhaustive))
+    claims = [_valid_claim(subject)]
+    stable = _stable_claim(subject)
+    if stable is not None:
         claims.append(stable)
-    claims.append(_share_claim(prefix, name, min_percent))
-    claims.append(_scaling_claim(prefix, name, max_exponent))
-    return [c.with_algorithm(name, _direct(spec)) for c in claims]
+    claims.append(_share_claim(subject, min_percent))
+    claims.append(_scaling_claim(subject, max_exponent))
+    return [c.with_algorithm(run_as, _direct(spec)) for c in claims]
 
 
-def _share_claim(prefix: str, name: str, min_percent: float) -> Claim:
+def _valid_claim(subject: _Subject) -> Claim:
+    return subject.any_mission_claim(
+        "valid",
+        f"{subject.spec.name} returns a valid assignment on every mission (each robot it "
+        "assigns performs a service it has, for a task requiring it, in one slot; checked "
+        "by proofs, not by the algorithm)",
+        _valid,
+        "raised",
+        "invalid",
+    )
+
+
+def _stable_claim(subject: _Subject) -> Claim | None:
+    spec = subject.spec
+    declared = _checker(spec)
+    if declared is None:
+        return None
+    promise, checker = declared
+    kind = spec.stability.value  # type: ignore[union-attr]
+    claim = subject.any_mission_claim(
+        "stable",
+        f"{spec.name}'s partition is {promise} on every mission, as its spec declares "
+        f"(stability {kind!r})",
+        _stable(promise, checker),
+        "unstable",
+    )
+    if kind == "own":
+        claim = replace(claim, method=_CheckerFirst(claim.method, checker))
+    return claim
+
+
+def _share_claim(subject: _Subject, min_percent: float) -> Claim:
     return property_claim(
-        f"{prefix}.{min_percent:g}pct",
-        f"{name} earns at least {min_percent:g} % of the optimum (the exact ILP) on every "
-        "achievable mission",
+        f"{subject.prefix}.{min_percent:g}pct",
+        f"{subject.spec.name} earns at least {min_percent:g} % of the optimum (the exact "
+        "ILP) on every achievable mission",
         ACHIEVABLE_FAMILY + "; the grid's and the sweep's missions without a complete "
         "assignment are skipped; the optimum is cfopt.solve_exact's, solved when a run "
         f"earns less than {min_percent:g} % of the total utility",
-        (name,),
+        (subject.run_as,),
         _share(min_percent),
         scope=Scope.GENERALISATION,
         cells=grid_cells(ALL_COMPOSITIONS),
@@ -563,14 +587,14 @@ def _share_claim(prefix: str, name: str, min_percent: float) -> Claim:
     )
 
 
-def _scaling_claim(prefix: str, name: str, max_exponent: float) -> Claim:
+def _scaling_claim(subject: _Subject, max_exponent: float) -> Claim:
     return Claim(
-        f"{prefix}.scaling",
-        f"{name}'s wall time, and its counted work where its runs report it, grow at most "
-        f"as n^{max_exponent:g} (a stated ceiling) over a size ladder",
+        f"{subject.prefix}.scaling",
+        f"{subject.spec.name}'s wall time, and its counted work where its runs report it, "
+        f"grow at most as n^{max_exponent:g} (a stated ceiling) over a size ladder",
         "size ladder n = 25..400, 10 % tasks (m proportional to n), 10:5, load 1 "
         "(proofs.scaling.ladder_mission); wall time measured, work counted",
-        (name,),
+        (subject.run_as,),
         WallTimeScaling(max_exponent),
         Scope.GENERALISATION,
     )

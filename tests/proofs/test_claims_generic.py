@@ -103,7 +103,7 @@ def test_the_claims_follow_the_declared_stability() -> None:
     assert ids["seed"] == ["grape.valid", "grape.stable", "grape.95pct", "grape.scaling"]
     assert ids["none"] == ["grape.valid", "grape.95pct", "grape.scaling"]
     claims = algorithm_claims(_spec(grape), min_percent=90, exhaustive=False)
-    assert [c.id for c in claims][1] == "grape.90pct"
+    assert claims[1].id == "grape.90pct"
     assert all(c.scope.value.startswith("a generalisation") for c in claims)
     assert "small scope" in algorithm_claims(_spec(grape))[0].family
     assert "small scope" not in claims[0].family
@@ -193,6 +193,17 @@ def test_an_invalid_assignment_fails_validity_with_a_counterexample_that_replays
     # the verdict travels as JSON (the audit's store) and back
     back = type(verdict).from_dict(json.loads(json.dumps(verdict.to_dict())))
     assert back.counterexample.seed == REPLAY_SEED and back.verdict is VerdictKind.FAILS
+
+
+def test_a_reference_names_the_runs_and_the_spec_names_the_claims() -> None:
+    spec = _spec(anyone_anywhere, name="anyone")
+    claims = algorithm_claims(spec, reference="mod:SPEC", exhaustive=False)
+    assert claims[0].id == "anyone.valid"
+    assert claims[0].statement.startswith("anyone returns") and claims[0].algorithms == (
+        "mod:SPEC",
+    )
+    ce = claims[0].check(BUDGET).counterexample
+    assert ce.algorithm == "mod:SPEC" and "replay: cfopt run mod:SPEC MISSION --seed 0" in ce.detail
 
 
 @pytest.mark.parametrize(
@@ -329,6 +340,7 @@ MOD = """
         return cfopt.Assignment.empty(mission)
 
 
+    CAPPED = heuristics.AlgorithmSpec("my-greedy", greedy, stability="capped")
     BAD_CHECKER = heuristics.AlgorithmSpec(
         "bad-checker", greedy, stability="own", checker="no_such_module_i22:check"
     )
@@ -363,7 +375,7 @@ def audited(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, str]:
     folder = tmp_path_factory.mktemp("generic-audit")
     (folder / "mod.py").write_text(textwrap.dedent(MOD), encoding="utf-8")
     args = ["audit", "--claims-only", "--quick", "--quiet", "-o", "out"]
-    args += ["--algorithm", "mod:greedy", "--algorithm", "mod:broken", "--algorithm", "mod:flaky"]
+    args += ["--algorithm", "mod:CAPPED", "--algorithm", "mod:broken", "--algorithm", "mod:flaky"]
     first = _cfopt(folder, *args)
     assert first.returncode == 0, first.stderr
     again = _cfopt(folder, *args, "--force", "--json")
@@ -375,41 +387,50 @@ def test_the_audit_checks_a_users_algorithms_generic_claims(audited) -> None:
     _, table, _ = audited
     rows = _rows(table)
     assert list(rows) == [
-        "mod-greedy.valid",
-        "mod-greedy.95pct",
-        "mod-greedy.scaling",
+        "my-greedy.valid",
+        "my-greedy.stable",
+        "my-greedy.95pct",
+        "my-greedy.scaling",
         "mod-broken.valid",
         "mod-broken.95pct",
         "mod-broken.scaling",
         "mod-flaky.valid",
         "mod-flaky.95pct",
         "mod-flaky.scaling",
-    ]  # stability "none" (a plain function): no stable claim; no claim of the seed's
-    assert rows["mod-greedy.valid"][0] == "holds" and rows["mod-greedy.valid"][2] == "-"
-    assert rows["mod-greedy.95pct"][0] == "fails"
+    ]  # a plain function declares no stability: no stable claim; no claim of the seed's
+    assert rows["my-greedy.valid"][0] == "holds" and rows["my-greedy.valid"][2] == "-"
+    assert rows["my-greedy.stable"][0] == "fails"  # capped moves: a robot wants a shorter slot
+    assert rows["my-greedy.95pct"][0] == "fails"
     assert rows["mod-broken.valid"] == ["fails", rows["mod-broken.valid"][1], "1/1/1"]
     assert rows["mod-flaky.valid"][0] == "fails"
     assert rows["mod-flaky.valid"][2].startswith("3/")
-    assert rows["mod-greedy.scaling"][0] in {"holds", "inconclusive"}  # a measurement
+    assert rows["my-greedy.scaling"][0] in {"holds", "inconclusive"}  # a measurement
 
 
 def test_the_counterexamples_replay(audited) -> None:
     folder, _, _ = audited
     found = folder / "out" / "counterexamples"
-    for claim in ("mod-greedy.95pct", "mod-broken.valid", "mod-flaky.valid"):
+    for claim in ("my-greedy.stable", "my-greedy.95pct", "mod-broken.valid", "mod-flaky.valid"):
         mission, assignment = found / f"{claim}.mission.json", found / f"{claim}.assignment.json"
         check = _cfopt(folder, "check", str(mission), str(assignment), "--json")
         assert check.returncode == 0 and json.loads(check.stdout)["valid"] is True, check.stderr
-    # the greedy's assignment, reproduced by `cfopt run` with the recorded seed
-    run = _cfopt(folder, "run", "mod:greedy", str(found / "mod-greedy.95pct.mission.json"),
-                 "--seed", "0", "-o", "re.json")  # fmt: skip
-    assert run.returncode == 0, run.stderr
-    assert (folder / "re.json").read_text() == (
-        found / "mod-greedy.95pct.assignment.json"
-    ).read_text()
+    # the greedy's assignments, reproduced by `cfopt run` with the recorded seed
+    for claim in ("my-greedy.stable", "my-greedy.95pct"):
+        mission = str(found / f"{claim}.mission.json")
+        run = _cfopt(
+            folder, "run", "mod:CAPPED", mission, "--seed", "0", "-o", "re.json", "--force"
+        )
+        assert run.returncode == 0, run.stderr
+        expected = (found / f"{claim}.assignment.json").read_text()
+        assert (folder / "re.json").read_text() == expected
+    stable = json.loads(
+        _cfopt(folder, "check", str(found / "my-greedy.stable.mission.json"),
+               str(found / "my-greedy.stable.assignment.json"), "--capped", "--json").stdout
+    )  # fmt: skip
+    assert stable["nash_stable"] is False and stable["nash_violations"]
     percent = json.loads(
-        _cfopt(folder, "check", str(found / "mod-greedy.95pct.mission.json"),
-               str(found / "mod-greedy.95pct.assignment.json"), "--json").stdout
+        _cfopt(folder, "check", str(found / "my-greedy.95pct.mission.json"),
+               str(found / "my-greedy.95pct.assignment.json"), "--json").stdout
     )["percent_utility"]  # fmt: skip
     assert percent < 95  # of the total, which is the optimum of an achievable mission
     # the broken and the raising one: `cfopt run` says what is wrong, one error line
@@ -421,12 +442,16 @@ def test_the_counterexamples_replay(audited) -> None:
         assert run.returncode == 2 and said in run.stderr and "Traceback" not in run.stderr
 
 
+def by_id_of(data: dict) -> dict[str, dict]:
+    return {v["id"]: v for v in data["claims"]}
+
+
 def test_the_verdicts_are_stored_and_reused(audited) -> None:
     _, _, again = audited
     data = json.loads(again)
-    assert data["reused_claims"] == 9 and data["gap_report"] is None
-    by_id = {v["id"]: v for v in data["claims"]}
-    broken = by_id["mod-broken.valid"]
+    assert data["reused_claims"] == 10 and data["gap_report"] is None
+    assert by_id_of(data)["my-greedy.stable"]["counterexample"]["algorithm"] == "mod:CAPPED"
+    broken = by_id_of(data)["mod-broken.valid"]
     assert broken["verdict"] == "fails" and broken["counterexample"]["seed"] == REPLAY_SEED
     assert broken["counterexample"]["algorithm"] == "mod:broken"
     assert "robot 'r0' performs 's0', which it does not have" in broken["counterexample"]["detail"]

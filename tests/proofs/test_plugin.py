@@ -115,6 +115,68 @@ def test_plugin_passes_stable_and_fails_broken_heuristics(pytester, capsys):
     assert "returned dict, not a cfopt.Assignment" in wrong
 
 
+GAP_TESTS = """
+import cfopt
+from hypothesis import strategies as st
+
+ONE = cfopt.Mission.from_arrays([[1]], [[1]], [10.0])  # the first task only: 100 %
+EVEN = cfopt.Mission.from_arrays([[1], [1]], [[1], [1]], [10.0, 10.0])  # 50 %
+WORST = cfopt.Mission.from_arrays([[1], [1]], [[1], [1]], [10.0, 30.0])  # 25 %
+
+
+def optimum(mission):
+    return cfopt.solve_exact(mission).assignment
+
+
+def first_task_only(mission):
+    best = optimum(mission)
+    keep = best.task == 0
+    return cfopt.Assignment(task=best.task * keep - ~keep, service=best.service * keep - ~keep)
+
+
+def test_the_optimum_passes(cfopt_audit):
+    cfopt_audit(optimum, nash=False, min_percent=95, max_examples=20)
+
+
+def test_the_worst_mission_is_shown(cfopt_audit):
+    missions = st.sampled_from([ONE, EVEN, WORST])
+    cfopt_audit(first_task_only, nash=False, min_percent=95, missions=missions)
+
+
+def test_a_lower_bar_passes(cfopt_audit):
+    missions = st.sampled_from([ONE, EVEN, WORST])
+    cfopt_audit(first_task_only, nash=False, min_percent=25, missions=missions)
+
+
+def test_without_min_percent_no_gap_is_measured(cfopt_audit):
+    cfopt_audit(first_task_only, nash=False, missions=st.sampled_from([EVEN, WORST]))
+"""
+
+
+def test_plugin_measures_the_gap_to_the_optimum(pytester, capsys):
+    pytester.makepyfile(test_gap=GAP_TESTS)
+    outcome = pytester.runpytest("-p", "no:cacheprovider")
+    outcome.assert_outcomes(passed=3, failed=1)
+    text = _section(outcome.stdout.str(), "test_the_worst_mission_is_shown")
+    found = re.search(
+        r"cfopt_audit: first_task_only: the partition earns (\S+) of the optimum (\S+) "
+        r"\(([\d.]+) % < 95 %\) on the worst of the missions drawn",
+        text,
+    )
+    assert found, text
+    (mission_path, assignment_path), report = _replay(capsys, text)
+    mission = cfopt.Mission.from_json(mission_path)
+    assert mission.utilities.tolist() == [10.0, 30.0]  # the worst of the three
+    assignment = cfopt.Assignment.from_json(mission, assignment_path)
+    optimum = cfopt.solve_exact(mission).utility
+    percent = 100 * assignment.utility(mission) / optimum
+    assert percent == pytest.approx(float(found.group(3))) == pytest.approx(25.0)
+    assert float(found.group(1)) == report["utility"] == 10.0 and float(found.group(2)) == 40.0
+    assert f"optimum: cfopt solve {mission_path}" in text
+    assert main(["solve", mission_path, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["utility"] == optimum
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
@@ -124,6 +186,9 @@ def test_plugin_passes_stable_and_fails_broken_heuristics(pytester, capsys):
         pytest.param({"capped": "yes"}, TypeError, "capped: must be a bool", id="capped"),
         pytest.param({"nash": 1}, TypeError, "nash: must be a bool", id="nash"),
         pytest.param({"seed": 1.5}, TypeError, "seed: must be a whole number", id="seed"),
+        pytest.param({"min_percent": 0}, ValueError, "min_percent: must be", id="percent"),
+        pytest.param({"min_percent": 101}, ValueError, "min_percent: must be", id="above"),
+        pytest.param({"min_percent": "95"}, TypeError, "min_percent: must be", id="text"),
     ],
 )
 def test_bad_arguments(cfopt_audit, kwargs, error, match):
