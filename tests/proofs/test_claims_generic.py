@@ -6,10 +6,7 @@ processes and stores them."""
 from __future__ import annotations
 
 import json
-import os
 import re
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
@@ -26,8 +23,8 @@ from proofs.claims_generic import (
     claim_prefix,
     validity_problems,
 )
+from tests.cfopt.test_user_algorithm import cfopt as cfopt_process
 
-ROOT = Path(__file__).resolve().parents[2]
 BUDGET = 2
 
 
@@ -347,19 +344,6 @@ MOD = """
 """
 
 
-def _cfopt(folder: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    env.pop("PYTEST_ADDOPTS", None)
-    return subprocess.run(
-        [sys.executable, "-m", "cfopt", *args],
-        cwd=folder,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
-
-
 def _rows(table: str) -> dict[str, list[str]]:
     rows = {}
     for line in table.splitlines()[1:]:
@@ -376,9 +360,9 @@ def audited(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, str]:
     (folder / "mod.py").write_text(textwrap.dedent(MOD), encoding="utf-8")
     args = ["audit", "--claims-only", "--quick", "--quiet", "-o", "out"]
     args += ["--algorithm", "mod:CAPPED", "--algorithm", "mod:broken", "--algorithm", "mod:flaky"]
-    first = _cfopt(folder, *args)
+    first = cfopt_process(*args, cwd=folder)
     assert first.returncode == 0, first.stderr
-    again = _cfopt(folder, *args, "--force", "--json")
+    again = cfopt_process(*args, "--force", "--json", cwd=folder)
     assert again.returncode == 0, again.stderr
     return folder, first.stdout, again.stdout
 
@@ -410,35 +394,36 @@ def test_the_audit_checks_a_users_algorithms_generic_claims(audited) -> None:
 def test_the_counterexamples_replay(audited) -> None:
     folder, _, _ = audited
     found = folder / "out" / "counterexamples"
+
+    def checked(claim: str, *flags: str) -> dict:
+        files = [str(found / f"{claim}.{kind}.json") for kind in ("mission", "assignment")]
+        done = cfopt_process("check", *files, *flags, "--json", cwd=folder)
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout)
+
     for claim in ("my-greedy.stable", "my-greedy.95pct", "mod-broken.valid", "mod-flaky.valid"):
-        mission, assignment = found / f"{claim}.mission.json", found / f"{claim}.assignment.json"
-        check = _cfopt(folder, "check", str(mission), str(assignment), "--json")
-        assert check.returncode == 0 and json.loads(check.stdout)["valid"] is True, check.stderr
+        assert checked(claim)["valid"] is True
     # the greedy's assignments, reproduced by `cfopt run` with the recorded seed
     for claim in ("my-greedy.stable", "my-greedy.95pct"):
         mission = str(found / f"{claim}.mission.json")
-        run = _cfopt(
-            folder, "run", "mod:CAPPED", mission, "--seed", "0", "-o", "re.json", "--force"
+        run = cfopt_process(
+            "run", "mod:CAPPED", mission, "--seed", "0", "-o", "re.json", "--force", cwd=folder
         )
         assert run.returncode == 0, run.stderr
         expected = (found / f"{claim}.assignment.json").read_text()
         assert (folder / "re.json").read_text() == expected
-    stable = json.loads(
-        _cfopt(folder, "check", str(found / "my-greedy.stable.mission.json"),
-               str(found / "my-greedy.stable.assignment.json"), "--capped", "--json").stdout
-    )  # fmt: skip
+    stable = checked("my-greedy.stable", "--capped")
     assert stable["nash_stable"] is False and stable["nash_violations"]
-    percent = json.loads(
-        _cfopt(folder, "check", str(found / "my-greedy.95pct.mission.json"),
-               str(found / "my-greedy.95pct.assignment.json"), "--json").stdout
-    )["percent_utility"]  # fmt: skip
+    percent = checked("my-greedy.95pct")["percent_utility"]
     assert percent < 95  # of the total, which is the optimum of an achievable mission
     # the broken and the raising one: `cfopt run` says what is wrong, one error line
     for name, claim, said in (
         ("mod:broken", "mod-broken.valid", "returned an assignment that does not fit"),
         ("mod:flaky", "mod-flaky.valid", "raised ValueError: three robots are too many"),
     ):
-        run = _cfopt(folder, "run", name, str(found / f"{claim}.mission.json"), "--seed", "0")
+        run = cfopt_process(
+            "run", name, str(found / f"{claim}.mission.json"), "--seed", "0", cwd=folder
+        )
         assert run.returncode == 2 and said in run.stderr and "Traceback" not in run.stderr
 
 
@@ -459,11 +444,15 @@ def test_the_verdicts_are_stored_and_reused(audited) -> None:
 
 def test_bad_algorithms_are_one_error_line(tmp_path: Path) -> None:
     (tmp_path / "mod.py").write_text(textwrap.dedent(MOD), encoding="utf-8")
-    bad = _cfopt(tmp_path, "audit", "--claims-only", "--algorithm", "mod:BAD_CHECKER", "-o", "x")
+    bad = cfopt_process(
+        "audit", "--claims-only", "--algorithm", "mod:BAD_CHECKER", "-o", "x", cwd=tmp_path
+    )
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert bad.stderr.startswith("error: --algorithm: bad-checker: its stability checker:")
     assert "no_such_module_i22" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
-    unknown = _cfopt(tmp_path, "audit", "--claims-only", "--algorithm", "nosuch", "-o", "x")
+    unknown = cfopt_process(
+        "audit", "--claims-only", "--algorithm", "nosuch", "-o", "x", cwd=tmp_path
+    )
     assert unknown.returncode == 2
     assert unknown.stderr.startswith("error: --algorithm: unknown algorithm 'nosuch'")
     assert not (tmp_path / "x").exists()
@@ -480,7 +469,7 @@ def test_an_edited_algorithm_is_checked_again(tmp_path: Path) -> None:
     reused = []
     for edit in ("", "", "# edited\n"):
         (tmp_path / "quick.py").write_text(source + edit, encoding="utf-8")
-        done = _cfopt(tmp_path, *args)
+        done = cfopt_process(*args, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
         reused.append(json.loads(done.stdout)["reused_claims"])
     assert reused == [0, 3, 0]
