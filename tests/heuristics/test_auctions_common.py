@@ -322,7 +322,7 @@ def test_sequential_rachna_matches_literal_auction(eps, mission):
 def test_deterministic_and_registered():
     m = cfopt.generate_mission(60, 10, 10, 5, seed=3)
     for name, f in (("sda", sda), ("rachna-dt", rachna_dt)):
-        assert heuristics.ALGORITHMS[name] is f
+        assert heuristics.ALGORITHMS[name].run is f
         assert heuristics.run_algorithm(name, m, seed=7, order="index").replace_seconds(0) == (
             f(m, seed=7).replace_seconds(0)
         )
