@@ -103,9 +103,11 @@ import numpy.typing as npt
 from cfopt import Mission
 
 __all__ = [
+    "NO_BELIEF",
     "Agent",
     "AgentContext",
     "Key",
+    "NoBelief",
     "Protocol",
     "ProtocolOutcome",
     "RunContext",
@@ -189,6 +191,18 @@ class AgentContext(RunContext):
     shared: Any = field(default=None, repr=False)
 
 
+@dataclass(frozen=True)
+class NoBelief:
+    """What a clocked agent holds before it has a belief: the key every belief starts
+    from, ``(0, 0, -1)``."""
+
+    key: Key = (0, 0, -1)
+
+
+#: The :class:`NoBelief`.
+NO_BELIEF = NoBelief()
+
+
 class Agent:
     """A robot's agent, with the defaults of every attribute the transports read (see
     the module docstring for the contract).
@@ -199,7 +213,8 @@ class Agent:
         ``True``: :meth:`tick` at every clock tick; ``False``: :meth:`start`,
         :meth:`receive` and :meth:`wake`.
     belief : object
-        A clocked agent's current belief (with a ``key``).
+        A clocked agent's current belief (with a ``key``; :data:`NO_BELIEF` until it
+        has one).
     stopped : bool
         Set by a clocked agent to end.
     wake_at : int or None
@@ -209,7 +224,7 @@ class Agent:
     """
 
     clocked: bool = True
-    belief: Any = None
+    belief: Any = NO_BELIEF
     stopped: bool = False
     wake_at: int | None = None
     ticks: int = 0

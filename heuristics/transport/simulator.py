@@ -118,13 +118,25 @@ def simulate(
 
     Examples
     --------
+    Robots that do nothing, and stop at once:
+
     >>> import cfopt
-    >>> from heuristics.agents.grape_s import GrapeSProtocol
+    >>> from heuristics.agents import Agent, Protocol
+    >>> class Idle(Agent):
+    ...     def tick(self, now, received, inbox):
+    ...         self.ticks += 1
+    ...         self.stopped = True
+    ...         return None, []          # nothing to broadcast, nothing to send
+    >>> class Nothing(Protocol):
+    ...     def make_agent(self, context):
+    ...         return Idle()
     >>> m = cfopt.generate_mission(robots=12, percent_tasks=25, service_types=3,
     ...                            services_per_robot=2, seed=4)
-    >>> run = simulate(m, GrapeSProtocol(), "complete sync=true", seed=0)
-    >>> run.network.converged, run.network.beliefs_agree, run.assignment.percent_utility(m)
-    (True, True, 100.0)
+    >>> run = simulate(m, Nothing(), "ring latency=uniform:1ms:5ms", seed=0)
+    >>> run.algorithm, run.rounds, run.messages, run.network.converged
+    ('Nothing', 1, 0, True)
+    >>> run.assignment.task.tolist() == [-1] * 12
+    True
     """
     started = time.perf_counter()
     require_mission(mission)
