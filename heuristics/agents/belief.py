@@ -53,9 +53,9 @@ Changes = tuple[tuple[int, int], ...]
 class Belief:
     """One immutable belief ``(r, time, robot, slots)`` (see the module docstring).
 
-    ``trail`` is the simulator's record of the moves that led here, one node
-    ``(r, ((robot, slot), ...), previous)`` per update; it is bookkeeping for the run's
-    trajectory and never part of a message.
+    ``trail`` records the moves that led here in this process, one node ``(r, ((robot,
+    slot), ...), previous)`` per update (:meth:`moves`); it is never part of a message
+    (a run's trajectory comes from the agents' own records: :func:`belief_history`).
     """
 
     __slots__ = (

@@ -3,7 +3,8 @@
 The centralized engine (:func:`heuristics.sda`) runs the auction as one program.  Here the
 same auction is run by agents that see only their own state and the messages that reach
 them, in the discrete-event simulator of :mod:`heuristics.simulate` (``simulate(mission,
-"sda", network)``).  The schedule is ``max-wage`` with ``eps = 1`` (the centralized
+"sda", network)``) or as MPI processes (``mpi_run(mission, "sda", network)``), by
+:class:`SdaProtocol`.  The schedule is ``max-wage`` with ``eps = 1`` (the centralized
 defaults; :class:`SdaProtocol` takes another ``eps``).  Every agent knows the mission (the
 robots' services, the tasks' requirements and utilities) and ``eps``, as the centralized
 engine does; what it learns at run time is what is sold, to whom and when.
@@ -474,11 +475,12 @@ def decode_message(data: bytes) -> Message:
 
     Returns
     -------
-    Announce, Bid, NoBid, Withdraw, Digest or Award
+    Announce, Bid, NoBid, Withdraw, Digest, Award, Resend or Ack
 
     Notes
     -----
-    O(len(data)).  Only for tests and tools: the simulator hands agents the objects.
+    O(len(data)).  The MPI transport rebuilds what was sent with it; the simulator hands
+    agents the objects.
 
     Examples
     --------

@@ -73,6 +73,7 @@ __all__ = [
     "assemble_run",
     "network_spec",
     "pack_key",
+    "require_protocol",
     "run_limits",
     "seed_entropy",
     "world_streams",
@@ -289,6 +290,16 @@ class InFlight:
                 if top > best_r or (top == best_r and tids[k] > best_tid):
                     best = self.beliefs[int(hit[k])]
         return best
+
+
+def require_protocol(protocol: Any) -> Protocol:
+    """``protocol`` if it is a :class:`heuristics.agents.Protocol`; otherwise
+    :class:`cfopt.errors.MissionTypeError` naming ``protocol``."""
+    if not isinstance(protocol, Protocol):
+        raise MissionTypeError(
+            f"protocol: must be a heuristics.agents.Protocol, got {shown(protocol)}"
+        )
+    return protocol
 
 
 def pack_key(key: Key) -> tuple[int, int]:

@@ -95,8 +95,7 @@ import numpy as np
 import numpy.typing as npt
 
 from cfopt import Mission, MissionError, require_mission
-from cfopt.checks import require_int, shown
-from cfopt.errors import MissionTypeError
+from cfopt.checks import require_int
 from heuristics._run import Run, seed_label
 from heuristics.agents.protocol import Protocol
 from heuristics.network import Clocks, Links, NetworkSpec
@@ -112,6 +111,7 @@ from heuristics.transport.driver import (
     EventRouting,
     assemble_run,
     network_spec,
+    require_protocol,
     run_limits,
     seed_entropy,
     world_streams,
@@ -207,10 +207,7 @@ def run_ranks(
     started = time.perf_counter()
     comm = MPI.COMM_WORLD if comm is None else comm
     require_mission(mission)
-    if not isinstance(protocol, Protocol):
-        raise MissionTypeError(
-            f"protocol: must be a heuristics.agents.Protocol, got {shown(protocol)}"
-        )
+    require_protocol(protocol)
     spec = network_spec(network)
     check_ranks(mission.n_robots, comm.Get_size())
     limit, quiet_factor = run_limits(time_limit, quiet_factor)

@@ -55,6 +55,7 @@ from heuristics.transport.driver import (
     EventRouting,
     assemble_run,
     network_spec,
+    require_protocol,
     run_limits,
     seed_entropy,
     world_streams,
@@ -140,10 +141,7 @@ def simulate(
     """
     started = time.perf_counter()
     require_mission(mission)
-    if not isinstance(protocol, Protocol):
-        raise MissionTypeError(
-            f"protocol: must be a heuristics.agents.Protocol, got {shown(protocol)}"
-        )
+    require_protocol(protocol)
     spec = network_spec(network)
     require_seed("seed", seed)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
