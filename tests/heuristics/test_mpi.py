@@ -249,7 +249,7 @@ def test_bad_mpi_options_exit_2(mission_file: Path, extra: list[str], fragment: 
 def test_algorithms_without_agents_are_refused(mission_file: Path) -> None:
     done = cfopt_cli("run", "rachna-dt", str(mission_file), "--backend", "mpi")
     assert done.returncode == 2 and "has no distributed agents" in done.stderr
-    assert "grape-s, pair-grape-s, sda" in done.stderr
+    assert "grape-s, grape-s-select, pair-grape-s, pair-grape-s-chain, sda" in done.stderr
 
 
 def test_missing_launcher_names_the_install_command(mission_file: Path) -> None:
