@@ -70,7 +70,9 @@ def simpy_simulate(mission, algorithm, network, *, seed):
 
     import simpy
 
-    sim = importlib.import_module("heuristics.simulate")  # the module (its function shadows it)
+    from heuristics.simulate import simulate
+
+    sim = importlib.import_module("heuristics.transport.simulator")
 
     def run(self) -> None:
         env = simpy.Environment()
@@ -84,8 +86,8 @@ def simpy_simulate(mission, algorithm, network, *, seed):
                 yield env.timeout(t - env.now)
                 before = self.tick_index[i]
                 self.now = int(env.now)
-                self._tick(i, int(env.now))
-                self.heap.clear()  # _tick schedules its next tick on the heap: simpy does
+                self._on_tick(i, int(env.now))
+                self.heap.clear()  # _on_tick schedules the next tick on the heap: simpy does
                 if self.stopped[i] or self.tick_index[i] == before:
                     return
 
@@ -94,12 +96,12 @@ def simpy_simulate(mission, algorithm, network, *, seed):
         env.run()
         self.end = self.limit if self.cut else self.now
 
-    original = sim._Simulation.run
-    sim._Simulation.run = run
+    original = sim.Simulator.run
+    sim.Simulator.run = run
     try:
-        return sim.simulate(mission, algorithm, network, seed=seed)
+        return simulate(mission, algorithm, network, seed=seed)
     finally:
-        sim._Simulation.run = original
+        sim.Simulator.run = original
 
 
 def measure(case, kernel: str, repeats: int) -> dict:

@@ -37,7 +37,11 @@ def _parser() -> argparse.ArgumentParser:
         prog="python -m cfopt.mpi",
         description="One MPI rank of a distributed run (start it with mpiexec -n K).",
     )
-    parser.add_argument("algorithm", help="grape-s, pair-grape-s or pair-grape-s-chain")
+    parser.add_argument(
+        "algorithm",
+        help="an algorithm with distributed agents (grape-s, pair-grape-s, sda, "
+        "pair-grape-s-chain, grape-s-select, or MODULE:ATTR)",
+    )
     parser.add_argument("mission", help="mission JSON file")
     parser.add_argument(
         "--network", default="complete", metavar="SPEC", help="as 'cfopt run --network'"
@@ -55,6 +59,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--quiet-factor", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--reward", default="paper", help=argparse.SUPPRESS)
     parser.add_argument("--result-file", default=None, help=argparse.SUPPRESS)
+    # the protocol the launching process built (pickled), and where its module is found
+    parser.add_argument("--protocol-file", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--sys-path", default=None, help=argparse.SUPPRESS)
     # the fresh draw of a run without a seed, made by the launching process (which checked
     # the network with it); the run is still recorded as one without a seed
     parser.add_argument("--entropy", type=int, default=None, help=argparse.SUPPRESS)
@@ -90,16 +97,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _rank_main(argv: Sequence[str] | None) -> int:
     import numpy as np
 
-    from heuristics.mpi import run_ranks
+    from heuristics.mpi import load_protocol, run_ranks
     from heuristics.simulate import DEFAULT_TIME_LIMIT, QUIET_FACTOR
 
     args = _parser().parse_args(argv)
     try:
         mission = load_mission(args.mission)
         check_output_free(args)
+        algorithm = args.algorithm
+        if args.protocol_file is not None:
+            algorithm = load_protocol(args.protocol_file, args.sys_path)
         run = run_ranks(
             mission,
-            args.algorithm,
+            algorithm,
             args.network,
             seed=args.seed if args.entropy is None else np.random.default_rng(args.entropy),
             time_limit=DEFAULT_TIME_LIMIT if args.time_limit is None else args.time_limit,

@@ -294,7 +294,7 @@ class AlgorithmSpec:
         flag per option (its ``--help`` lists them).
     protocol : callable or str, optional
         The distributed protocol: ``protocol(**protocol_options) -> Protocol`` (a
-        :class:`heuristics.simulate.Protocol` subclass is one), or its ``"MODULE:ATTR"``,
+        :class:`heuristics.agents.Protocol` subclass is one), or its ``"MODULE:ATTR"``,
         imported when first needed.  Without it the algorithm has no distributed runs.
     protocol_options : tuple of Option
         The options of ``protocol`` (``cfopt run NAME MISSION --network SPEC`` flags).
@@ -731,12 +731,12 @@ SHIPPED: tuple[AlgorithmSpec, ...] = (
         options=(Option(
             "capped", bool, False, "forbid joining a slot that already holds the robots it "
             "requires (Pair-GRAPE-S's first phase)"), _REWARD, *_COMMON),
-        protocol="heuristics.simulate:GrapeSProtocol",
+        protocol="heuristics.agents.grape_s:GrapeSProtocol",
         summary="GRAPE-S, the seed's hedonic-game coalition formation",
     ),
     AlgorithmSpec(
         "pair-grape-s", pair_grape_s, stability="capped", options=(_REWARD, *_COMMON),
-        protocol="heuristics.simulate:PairGrapeSProtocol", measures=_PAIRWISE,
+        protocol="heuristics.agents.grape_s:PairGrapeSProtocol", measures=_PAIRWISE,
         summary="Pair-GRAPE-S: capped GRAPE-S, then the seed's pairwise exchanges",
     ),
     AlgorithmSpec(
@@ -762,14 +762,15 @@ SHIPPED: tuple[AlgorithmSpec, ...] = (
     AlgorithmSpec(
         "pair-grape-s-chain", pair_grape_s_chain, stability="capped",
         options=(_REWARD, *_COMMON),
-        protocol="heuristics.simulate:PairGrapeSChainProtocol", measures=_PAIRWISE,
+        protocol="heuristics.agents.grape_s:PairGrapeSChainProtocol", measures=_PAIRWISE,
         summary="Pair-GRAPE-S with chain exchanges (cfopt's own)",
     ),
     AlgorithmSpec(
         "grape-s-select", grape_s_select, stability="own",
         checker="proofs.select_stability:select_violations",
         options=(_EXCHANGE, *_COMMON),
-        protocol="heuristics.simulate:GrapeSSelectProtocol", protocol_options=(_EXCHANGE,),
+        protocol="heuristics.agents.grape_s_select:GrapeSSelectProtocol",
+        protocol_options=(_EXCHANGE,),
         summary="GRAPE-S-Select: GRAPE-S with task selection (cfopt's own)",
     ),
 )  # fmt: skip

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,7 @@ import numpy.typing as npt
 from cfopt import Mission
 from heuristics.reward import VOID, reward_model
 
-__all__ = ["Belief", "Problem", "decode_belief", "encode_belief"]
+__all__ = ["Belief", "Changes", "Problem", "belief_history", "decode_belief", "encode_belief"]
 
 _HEADER = struct.Struct("<iiq")  # r, robot id, time (ns)
 _PASS = struct.Struct("<ii")  # Pair-GRAPE-S: cursor, made
@@ -45,14 +46,16 @@ _EXACT_FLOATS = 2**51
 _NO_SLOT = -1
 
 Trail = tuple[Any, ...] | None
+#: The ``(robot, slot)`` changes of one update.
+Changes = tuple[tuple[int, int], ...]
 
 
 class Belief:
     """One immutable belief ``(r, time, robot, slots)`` (see the module docstring).
 
-    ``trail`` is the simulator's record of the moves that led here, one node
-    ``(r, ((robot, slot), ...), previous)`` per update; it is bookkeeping for the run's
-    trajectory and never part of a message.
+    ``trail`` records the moves that led here in this process, one node ``(r, ((robot,
+    slot), ...), previous)`` per update (:meth:`moves`); it is never part of a message
+    (a run's trajectory comes from the agents' own records: :func:`belief_history`).
     """
 
     __slots__ = (
@@ -170,6 +173,29 @@ def decode_belief(data: bytes, n: int, *, pairwise: bool = False) -> Belief:
     slots.setflags(write=False)
     cursor, made = _PASS.unpack_from(data, _HEADER.size + 4 * n) if pairwise else (-1, 0)
     return Belief(r, time, robot, slots, None, cursor, made)
+
+
+def belief_history(
+    made: Mapping[tuple[int, int, int], tuple[Changes, tuple[int, int, int]]],
+    key: tuple[int, int, int],
+) -> list[tuple[int, Changes]]:
+    """``(r, changes)`` of every update behind the belief of key ``key``, oldest first,
+    from records ``new key -> (changes, key of the belief the update was made on)`` (the
+    agents' :attr:`~heuristics.agents.GrapeSAgent.made`, of one process or many).
+
+    >>> b = Belief.initial(3).updated(((1, 4),), 5, 1)
+    >>> c = b.updated(((0, 2), (2, 4)), 9, 0)
+    >>> made = {b.key: (((1, 4),), (0, 0, -1)), c.key: (((0, 2), (2, 4)), b.key)}
+    >>> belief_history(made, c.key)
+    [(1, ((1, 4),)), (2, ((0, 2), (2, 4)))]
+    """
+    out = []
+    while key in made:
+        changes, parent = made[key]
+        out.append((key[0], changes))
+        key = parent
+    out.reverse()
+    return out
 
 
 class Problem:

@@ -46,26 +46,55 @@ pairwise actor is the robot the centralized pass reaches next.
 
 Direct messages (little-endian int32 fields): request ``(1, o, a, slot)`` 16 bytes;
 answer ``(2, o, accepted)`` 12 bytes.
+
+The protocols (:class:`GrapeSProtocol`, :class:`PairGrapeSProtocol`,
+:class:`PairGrapeSChainProtocol`) hand these agents to any transport
+(:mod:`heuristics.agents.protocol`).  Every agent records the updates it makes (each with
+the key of the belief it was made on); the observer rebuilds the newest final belief's
+history -- the run's trajectory -- from those records, in one process or gathered from
+many.
 """
 
 from __future__ import annotations
 
 import itertools
 import struct
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from heuristics.agents.belief import Belief, Problem
+from heuristics.agents.belief import (
+    Belief,
+    Changes,
+    Problem,
+    belief_history,
+    decode_belief,
+    encode_belief,
+)
+from heuristics.agents.protocol import (
+    Agent,
+    AgentContext,
+    Key,
+    Protocol,
+    ProtocolOutcome,
+    RunContext,
+    RunEnd,
+)
 
 __all__ = [
     "Answer",
+    "BeliefReport",
     "ChainRequest",
     "GrapeSAgent",
+    "GrapeSProtocol",
     "PairGrapeSAgent",
     "PairGrapeSChainAgent",
+    "PairGrapeSChainProtocol",
+    "PairGrapeSProtocol",
     "Request",
+    "decode_message",
 ]
 
 _REQUEST = struct.Struct("<iiii")
@@ -114,7 +143,7 @@ def decode_message(data: bytes) -> Any:
 Outbox = list[tuple[int, Any]]
 
 
-class GrapeSAgent:
+class GrapeSAgent(Agent):
     """One robot running GRAPE-S (module docstring).
 
     Parameters
@@ -125,6 +154,15 @@ class GrapeSAgent:
         Ticks without a change after which the robot stops (``K * d_G``).
     capped : bool
         Capped selection (no joining of full slots).
+
+    Attributes
+    ----------
+    made : dict
+        Every update this robot made: the new belief's key -> ``(changes, key of the
+        belief it was made on)``.
+    work : int
+        Slot examinations: what the literal algorithm examines per selection
+        (:attr:`Problem.examined`), once per tick.
     """
 
     pairwise = False
@@ -137,11 +175,14 @@ class GrapeSAgent:
         self.belief = Belief.initial(problem.n)
         self.quiet = 0
         self.stopped = False
-        self.ticks = self.proposals = 0
+        self.ticks = self.proposals = self.work = 0
+        self.examined = int(problem.examined[robot])
+        self.made: dict[Key, tuple[Changes, Key]] = {}
 
     def tick(self, now: int, received: Belief | None, inbox: list[Any]) -> tuple[Belief, Outbox]:
         """One clock tick: mutex, selection, then the belief to broadcast and direct sends."""
         self.ticks += 1
+        self.work += self.examined
         changed = self._mutex(received)
         changed |= self._select(now)
         self._after(changed)
@@ -161,9 +202,16 @@ class GrapeSAgent:
         target = self.problem.best_move(self.belief, self.robot, self.capped)
         if target is None:
             return False
-        self.belief = self.belief.updated(((self.robot, target),), now, self.robot)
+        self._update(((self.robot, target),), now)
         self.proposals += 1
         return True
+
+    def _update(self, changes: Changes, now: int, **fields: Any) -> None:
+        """Make these changes in this robot's belief (an update by it, at ``now``) and
+        record the update."""
+        old = self.belief
+        self.belief = old.updated(changes, now, self.robot, **fields)
+        self.made[self.belief.key] = (changes, old.key)
 
     def _after(self, changed: bool) -> None:
         self.quiet = 0 if changed else self.quiet + 1
@@ -187,6 +235,7 @@ class PairGrapeSAgent(GrapeSAgent):
 
     def tick(self, now: int, received: Belief | None, inbox: list[Any]) -> tuple[Belief, Outbox]:
         self.ticks += 1
+        self.work += self.examined
         changed = self._mutex(received)
         out: Outbox = []
         for message in inbox:
@@ -256,10 +305,9 @@ class PairGrapeSAgent(GrapeSAgent):
         if target is None:
             return False
         same_pass = request.o > belief.cursor
-        self.belief = belief.updated(
+        self._update(
             ((request.o, request.slot), (self.robot, target)),
             now,
-            self.robot,
             cursor=request.o,
             made=belief.made + 1 if same_pass else 1,
         )
@@ -408,10 +456,9 @@ class PairGrapeSChainAgent(PairGrapeSAgent):
         movers = (request.o, *request.robots)
         targets = (*request.slots, request.end)
         same_pass = request.o > belief.cursor
-        self.belief = belief.updated(
+        self._update(
             tuple(zip(movers, targets, strict=True)),
             now,
-            self.robot,
             cursor=request.o,
             made=belief.made + 1 if same_pass else 1,
         )
@@ -459,3 +506,145 @@ def _chain(problem: Problem, belief: Belief) -> tuple[int, tuple, tuple, int] | 
         robots = tuple(chain[1:])
         return o, robots, tuple(int(slots[r]) for r in robots), found[0] * S + found[1]
     return None
+
+
+# ------------------------------------------------------------------------ protocols
+@dataclass(frozen=True)
+class BeliefReport:
+    """What a GRAPE-S-family agent tells the observer at the end of a run.
+
+    Attributes
+    ----------
+    payload : bytes
+        Its final belief, encoded (the observer decodes the newest).
+    made : dict
+        Its :attr:`GrapeSAgent.made` records.
+    step_needed : bool
+        The pairwise step had work when this robot reached it (Pair-GRAPE-S).
+    """
+
+    payload: bytes
+    made: Mapping[Key, tuple[Changes, Key]]
+    step_needed: bool = False
+
+
+class GrapeSProtocol(Protocol):
+    """GRAPE-S's agents (:class:`GrapeSAgent`) for any transport; final = Nash stable.
+
+    The robots share a :class:`~heuristics.agents.Problem` (the mission and the reward
+    the run asks for).  Beliefs travel as :func:`~heuristics.agents.encode_belief`'s
+    ``16 + 4 n`` bytes (``24 + 4 n`` with Pair-GRAPE-S's pass state).  The outcome: the
+    robots agree when they end on one key, converge when that belief is final; the
+    trajectory and ``iterations`` are the newest final belief's history.
+
+    Examples
+    --------
+    >>> import cfopt, heuristics
+    >>> m = cfopt.generate_mission(robots=12, percent_tasks=25, service_types=3,
+    ...                            services_per_robot=2, seed=4)
+    >>> run = heuristics.simulate(m, GrapeSProtocol(), "complete sync=true", seed=0)
+    >>> run.trajectory.tolist() == heuristics.grape_s(m).trajectory.tolist()
+    True
+    """
+
+    name = "grape-s"
+    pairwise = False
+
+    def prepare(self, context: RunContext) -> Any:
+        return Problem(context.mission, context.reward)
+
+    def make_agent(self, context: AgentContext) -> Agent:
+        return GrapeSAgent(context.robot, context.shared, context.quiet_limit)
+
+    def encode(self, belief: Any) -> bytes:
+        return encode_belief(belief, pairwise=self.pairwise)
+
+    def decode(self, data: bytes, context: RunContext) -> Any:
+        return decode_belief(data, context.n, pairwise=self.pairwise)
+
+    def decode_message(self, data: bytes, context: RunContext) -> Any:
+        return decode_message(data)
+
+    def final(self, shared: Any, belief: Any) -> bool:
+        """Whether ``belief`` is final for the algorithm (no robot has a move)."""
+        return shared.stable(belief, capped=False)
+
+    def initial(self, shared: Any, context: RunContext) -> Any:
+        """The belief every robot starts from."""
+        return Belief.initial(context.n)
+
+    def report(self, agent: Any) -> BeliefReport:
+        return BeliefReport(
+            self.encode(agent.belief), agent.made, bool(getattr(agent, "step_needed", False))
+        )
+
+    def outcome(self, end: RunEnd) -> ProtocolOutcome:
+        newest = end.newest_key
+        if newest is None:
+            belief = self.initial(end.shared, end.context)
+        else:
+            belief = self.decode(end.reports[end.keys.index(newest)].payload, end.context)
+        agree = end.beliefs_agree
+        converged = agree and self.final(end.shared, belief)
+        made: dict[Key, tuple[Changes, Key]] = {}
+        for report in end.reports:
+            made.update(report.made)
+        history = belief_history(made, belief.key)
+        iterations, trajectory, exchanges = self.numbered(history, end.context.mission)
+        return ProtocolOutcome(
+            iterations=iterations,
+            trajectory=trajectory,
+            converged=bool(converged),
+            beliefs_agree=agree,
+            convergence_ns=end.settled_ns if converged else None,
+            exchanges=exchanges,
+            pairwise_step_ran=any(report.step_needed for report in end.reports),
+            options=self.options(end.context),
+        )
+
+    def numbered(
+        self, history: list[tuple[int, Changes]], mission: Any
+    ) -> tuple[int, list[tuple[int, int, int, int]], int]:
+        """``(iterations, trajectory, exchanges)`` from the newest belief's history
+        (oldest update first): every update is iteration ``r``."""
+        S = max(mission.n_services, 1)
+        trajectory = [
+            (r, robot, slot // S if slot >= 0 else -1, slot % S if slot >= 0 else -1)
+            for r, changes in history
+            for robot, slot in changes
+        ]
+        iterations = history[-1][0] if history else 0
+        return iterations, trajectory, sum(1 for _, changes in history if len(changes) >= 2)
+
+    def options(self, context: RunContext) -> tuple[tuple[str, Any], ...]:
+        """What ``run.options`` records of this protocol."""
+        return (("capped", self.pairwise), ("reward", context.reward))
+
+
+class PairGrapeSProtocol(GrapeSProtocol):
+    """Pair-GRAPE-S's agents (:class:`PairGrapeSAgent`); final = nothing left for the
+    pairwise step."""
+
+    name = "pair-grape-s"
+    pairwise = True
+
+    def make_agent(self, context: AgentContext) -> Agent:
+        return PairGrapeSAgent(context.robot, context.shared, context.quiet_limit, context.hops)
+
+    def final(self, shared: Any, belief: Any) -> bool:
+        return pairwise_plan(shared, belief) is None
+
+
+class PairGrapeSChainProtocol(PairGrapeSProtocol):
+    """Pair-GRAPE-S with chain exchanges (:class:`PairGrapeSChainAgent`); final = no
+    chain left for the step."""
+
+    name = "pair-grape-s-chain"
+
+    def make_agent(self, context: AgentContext) -> Agent:
+        return PairGrapeSChainAgent(
+            context.robot, context.shared, context.quiet_limit, context.hops
+        )
+
+    def final(self, shared: Any, belief: Any) -> bool:
+        return chain_plan(shared, belief) is None

@@ -99,13 +99,15 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Mission
-from heuristics.agents.belief import Belief, Problem, encode_belief
-from heuristics.agents.grape_s import GrapeSAgent
+from cfopt import Mission, MissionError
+from heuristics.agents.belief import Belief, Changes, Problem, encode_belief
+from heuristics.agents.grape_s import GrapeSAgent, GrapeSProtocol
+from heuristics.agents.protocol import Agent, AgentContext, RunContext
 from heuristics.grape_s_select import _Engine
 
 __all__ = [
     "GrapeSSelectAgent",
+    "GrapeSSelectProtocol",
     "SelectBelief",
     "SelectModel",
     "decode_select_belief",
@@ -384,7 +386,7 @@ class GrapeSSelectAgent(GrapeSAgent):
         model, belief = self.model, self.belief
         target = model.best_move(belief, self.robot)
         if target is not None:
-            self.belief = belief.updated(((self.robot, target),), now, self.robot)
+            self._update(((self.robot, target),), now)
             self.proposals += 1
             return True
         if model.any_move(belief):
@@ -395,9 +397,7 @@ class GrapeSSelectAgent(GrapeSAgent):
             self.work += work
         if step is None:
             return False
-        self.belief = belief.updated(
-            step.changes, now, self.robot, closed=step.closed, used=step.used, cache=step.cache
-        )
+        self._update(step.changes, now, closed=step.closed, used=step.used, cache=step.cache)
         self.steps += 1
         self.proposals += 1
         return True
@@ -413,3 +413,69 @@ class GrapeSSelectAgent(GrapeSAgent):
         if model.best_move(belief, self.robot) is not None:
             return False
         return model.any_move(belief) or model.phase_step(belief)[0] is None
+
+
+class GrapeSSelectProtocol(GrapeSProtocol):
+    """GRAPE-S-Select's agents (:class:`GrapeSSelectAgent`) for any transport; final = no
+    robot has a move and no phase step applies.  Beliefs carry the task bits (``16 + 4 n +
+    ceil(m / 4)`` bytes); the trajectory and ``iterations`` count, as the centralized
+    engine does, the updates that changed the partition (moves, close and exchange steps,
+    not reopenings).
+
+    Parameters
+    ----------
+    exchange : bool, default True
+        The exchange phase step (as :func:`heuristics.grape_s_select`'s).
+    """
+
+    name = "grape-s-select"
+
+    def __init__(self, exchange: bool = True) -> None:
+        if not isinstance(exchange, bool | np.bool_):
+            raise MissionError(f"options: exchange must be True or False, got {exchange!r}")
+        self.exchange = bool(exchange)
+
+    def prepare(self, context: RunContext) -> Any:
+        if context.reward != "paper":
+            raise MissionError(
+                f"reward: grape-s-select has its own reward, got reward={context.reward!r}"
+            )
+        return Problem(context.mission, context.reward), SelectModel(
+            context.mission, exchange=self.exchange
+        )
+
+    def make_agent(self, context: AgentContext) -> Agent:
+        problem, model = context.shared
+        return GrapeSSelectAgent(context.robot, problem, model, context.quiet_limit)
+
+    def encode(self, belief: Any) -> bytes:
+        return encode_select_belief(belief)
+
+    def decode(self, data: bytes, context: RunContext) -> Any:
+        return decode_select_belief(data, context.n, context.mission.n_tasks)
+
+    def final(self, shared: Any, belief: Any) -> bool:
+        return shared[1].final(belief)
+
+    def initial(self, shared: Any, context: RunContext) -> Any:
+        return shared[1].initial()
+
+    def numbered(
+        self, history: list[tuple[int, Changes]], mission: Any
+    ) -> tuple[int, list[tuple[int, int, int, int]], int]:
+        """Iterations count only the updates that changed the partition; no exchanges
+        are reported."""
+        S = max(mission.n_services, 1)
+        iterations = 0
+        trajectory = []
+        for _, changes in history:
+            if changes:
+                iterations += 1
+                trajectory += [
+                    (iterations, robot, *((slot // S, slot % S) if slot >= 0 else (-1, -1)))
+                    for robot, slot in changes
+                ]
+        return iterations, trajectory, 0
+
+    def options(self, context: RunContext) -> tuple[tuple[str, Any], ...]:
+        return (("exchange", self.exchange),)

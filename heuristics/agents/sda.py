@@ -3,7 +3,8 @@
 The centralized engine (:func:`heuristics.sda`) runs the auction as one program.  Here the
 same auction is run by agents that see only their own state and the messages that reach
 them, in the discrete-event simulator of :mod:`heuristics.simulate` (``simulate(mission,
-"sda", network)``).  The schedule is ``max-wage`` with ``eps = 1`` (the centralized
+"sda", network)``) or as MPI processes (``mpi_run(mission, "sda", network)``), by
+:class:`SdaProtocol`.  The schedule is ``max-wage`` with ``eps = 1`` (the centralized
 defaults; :class:`SdaProtocol` takes another ``eps``).  Every agent knows the mission (the
 robots' services, the tasks' requirements and utilities) and ``eps``, as the centralized
 engine does; what it learns at run time is what is sold, to whom and when.
@@ -213,6 +214,7 @@ import heapq
 import math
 import struct
 from bisect import bisect_right
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
@@ -222,7 +224,14 @@ import numpy.typing as npt
 from cfopt import Mission, MissionError
 from cfopt.checks import require_int
 from heuristics._auction import BundleFinder, check_eps
-from heuristics.simulate import Outcome, Protocol
+from heuristics.agents.protocol import (
+    Agent,
+    AgentContext,
+    Protocol,
+    ProtocolOutcome,
+    RunContext,
+    RunEnd,
+)
 
 __all__ = [
     "DIGEST_PERIODS",
@@ -237,6 +246,7 @@ __all__ = [
     "NoBid",
     "Resend",
     "SdaProtocol",
+    "SdaReport",
     "SdaRobot",
     "ServiceAgent",
     "TaskAgent",
@@ -465,11 +475,12 @@ def decode_message(data: bytes) -> Message:
 
     Returns
     -------
-    Announce, Bid, NoBid, Withdraw, Digest or Award
+    Announce, Bid, NoBid, Withdraw, Digest, Award, Resend or Ack
 
     Notes
     -----
-    O(len(data)).  Only for tests and tools: the simulator hands agents the objects.
+    O(len(data)).  The MPI transport rebuilds what was sent with it; the simulator hands
+    agents the objects.
 
     Examples
     --------
@@ -553,6 +564,12 @@ class _Market:
         n = max(self.n, 1)
         self.service_host = [s % n for s in range(self.S)]
         self.task_host = [(self.S + j) % n for j in range(self.m)]
+        #: The service agents and the task agents robot i hosts, in index order.
+        self.hosted: dict[int, tuple[list[int], list[int]]] = {}
+        for s, robot in enumerate(self.service_host):
+            self.hosted.setdefault(robot, ([], []))[0].append(s)
+        for j, robot in enumerate(self.task_host):
+            self.hosted.setdefault(robot, ([], []))[1].append(j)
         #: Where service agent s sends its digests: the robots hosting another one.
         self.digest_to = [
             sorted({h for x, h in enumerate(self.service_host) if x != s}) for s in range(self.S)
@@ -570,6 +587,22 @@ class _Market:
         if pos >= q - 1:
             return level, 0
         return level - 1, pos + 1
+
+
+def _cheapest(
+    agent: ServiceAgent | TaskAgent,
+    j: int,
+    pools: list[npt.NDArray[np.int64]],
+    weight: npt.NDArray[np.int64],
+) -> Any:
+    """The market's cheapest bundle of task ``j`` (:meth:`BundleFinder.cheapest`), its
+    work counted to ``agent``."""
+    finder = agent.mk.finder
+    assert finder is not None
+    before = finder.entries
+    bundle = finder.cheapest(j, pools, weight)
+    agent.work += finder.entries - before
+    return bundle
 
 
 # ------------------------------------------------------------------------ service agent
@@ -592,6 +625,8 @@ class ServiceAgent:
     ended : bool
     late : int
         Answers and digests that came after their round was closed here.
+    work : int
+        Its bundle matchings' work (cost-matrix entries).
 
     Notes
     -----
@@ -652,7 +687,7 @@ class ServiceAgent:
         self.given_up = {AWARD: 0, FINAL: 0}
         self.ended = False
         self.deadline: int | None = None
-        self.late = 0
+        self.late = self.work = 0
 
     # ------------------------------------------------------------------ events
     def start(self, now: int) -> Sends:
@@ -890,7 +925,7 @@ class ServiceAgent:
             if robots.size == k[j] and not sold[robots].any():
                 cost = k[j] * lo + (hi - lo) * int(weight[robots].sum())
             if cost is None or cost > u[j]:
-                b = finder.cheapest(j, pools, weight)
+                b = _cheapest(self, j, pools, weight)
                 if b is None:
                     continue
                 robots, services = b.robots, b.services
@@ -905,7 +940,7 @@ class ServiceAgent:
             _, j = heapq.heappop(heap)
             robots, services = bundles[j]
             if sold_round[robots].any():  # rejected: recompute on what is left
-                b = finder.cheapest(j, pools, weight)
+                b = _cheapest(self, j, pools, weight)
                 if b is None:
                     continue
                 cost = k[j] * lo + (hi - lo) * b.weight
@@ -950,6 +985,8 @@ class TaskAgent:
     staffed, withdrawn, ended : bool
     matchings : int
         Bundle matchings run (the skipped ones are the point of the bound).
+    work : int
+        Their work (cost-matrix entries).
 
     Notes
     -----
@@ -992,7 +1029,7 @@ class TaskAgent:
         self.dead = False
         self.staffed = self.withdrawn = False
         self.ended = not mk.possible[j]
-        self.bids = self.matchings = 0
+        self.bids = self.matchings = self.work = 0
 
     def start(self, now: int) -> Sends:
         return []
@@ -1040,7 +1077,7 @@ class TaskAgent:
             pool = self.pools[s]
             self.pools[s] = pool[~sold[pool]]
         self.matchings += 1
-        if finder.cheapest(self.j, self.pools, np.zeros(mk.n, dtype=np.int64)) is None:
+        if _cheapest(self, self.j, self.pools, np.zeros(mk.n, dtype=np.int64)) is None:
             self.dead = True
         return False
 
@@ -1073,7 +1110,7 @@ class TaskAgent:
         finder = mk.finder
         assert finder is not None
         self.matchings += 1
-        bundle = finder.cheapest(j, self.pools, weight)
+        bundle = _cheapest(self, j, self.pools, weight)
         if bundle is None:
             self.dead = self.withdrawn = True
             self._end()
@@ -1086,7 +1123,7 @@ class TaskAgent:
 
 
 # -------------------------------------------------------------------------------- robot
-class SdaRobot:
+class SdaRobot(Agent):
     """One robot: the host of the agents placed on it, and the performer of its award.
 
     Parameters
@@ -1101,7 +1138,9 @@ class SdaRobot:
     awards : list of tuple
         Every award received, ``(arrival ns, round, rank, task, service)``, in order.
     wake_at : int or None
-        The earliest timer of the hosted agents (the simulator wakes the robot then).
+        The earliest timer of the hosted agents (the transport wakes the robot then).
+    work : int
+        The bundle matchings' work (cost-matrix entries) of the hosted agents.
 
     Notes
     -----
@@ -1152,6 +1191,11 @@ class SdaRobot:
     @property
     def ended(self) -> bool:
         return all(a.ended for a in self.agents)
+
+    @property
+    def work(self) -> int:  # type: ignore[override]
+        """The bundle matchings' work of the agents hosted here (cost-matrix entries)."""
+        return sum(a.work for a in self.agents)
 
     def _rearm(self) -> None:
         timed = self.timed
@@ -1216,8 +1260,27 @@ class SdaRobot:
 
 
 # ----------------------------------------------------------------------------- protocol
+@dataclass(frozen=True)
+class SdaReport:
+    """What a robot tells the observer at the end of an SDA run.
+
+    Attributes
+    ----------
+    awards : tuple
+        :attr:`SdaRobot.awards`.
+    replicas : tuple of (task_of, service_of)
+        The final replica of every service agent it hosts (service order).
+    ended : bool
+        Every agent it hosts ended.
+    """
+
+    awards: tuple[tuple[int, int, int, int, int], ...]
+    replicas: tuple[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]], ...]
+    ended: bool
+
+
 class SdaProtocol(Protocol):
-    """SDA's agents for :func:`heuristics.simulate.simulate` (see the module docstring).
+    """SDA's agents for any transport (see the module docstring).
 
     Parameters
     ----------
@@ -1230,8 +1293,9 @@ class SdaProtocol(Protocol):
 
     Notes
     -----
-    :meth:`make_agents` is O(n + (S + m) (n S)) (every replica and view starts with the
-    mission's pools); :meth:`outcome` O(awards log awards + S n).
+    :meth:`prepare` is O(n S + K m S) (the bundle finder); the agents of a robot start
+    with the mission's pools, O((S + m) n S) for all of them; :meth:`outcome` O(awards
+    log awards + S n).
 
     Examples
     --------
@@ -1250,13 +1314,26 @@ class SdaProtocol(Protocol):
         self.eps = check_eps(eps)
         self.resend_tries = require_int("resend_tries", resend_tries, minimum=0)
 
-    def make_agents(self, sim: Any) -> list[Any]:
-        return self.agents(sim.mission, sim.clocks.period_ns, sim.network.diameter)
+    def prepare(self, context: RunContext) -> _Market:
+        return _Market(
+            context.mission, self.eps, context.period_ns, context.diameter, self.resend_tries
+        )
+
+    def make_agent(self, context: AgentContext) -> SdaRobot:
+        market: _Market = context.shared
+        robot = SdaRobot(context.robot, market)
+        services, tasks = market.hosted.get(context.robot, ((), ()))
+        for s in services:
+            robot.host(ServiceAgent(s, market))
+        for j in tasks:
+            robot.host(TaskAgent(j, market))
+        return robot
 
     def agents(
         self, mission: Mission, period_ns: int = 10_000_000, diameter: int = 1
     ) -> list[SdaRobot]:
-        """One :class:`SdaRobot` per robot, hosting the agents placed on it.
+        """One :class:`SdaRobot` per robot, hosting the agents placed on it (outside any
+        transport: for tests and tools).
 
         Parameters
         ----------
@@ -1274,47 +1351,49 @@ class SdaProtocol(Protocol):
         -----
         O(n + (S + m) n S): every replica and view starts with the mission's pools.
         """
-        market = _Market(mission, self.eps, period_ns, diameter, self.resend_tries)
-        self.market = market
-        robots = [SdaRobot(i, market) for i in range(market.n)]
-        if not robots:
-            return robots
-        for s in range(market.S):
-            robots[market.service_host[s]].host(ServiceAgent(s, market))
-        for j in range(market.m):
-            robots[market.task_host[j]].host(TaskAgent(j, market))
-        return robots
+        context = RunContext(
+            mission, "paper", 1, diameter, period_ns, hops=_one_hop, neighbours=_nobody
+        )
+        market = self.prepare(context)
+        return [self.make_agent(context.for_robot(i, market)) for i in range(market.n)]
 
-    def outcome(self, sim: Any) -> Outcome:
-        robots: list[SdaRobot] = sim.agents
+    def decode_message(self, data: bytes, context: RunContext) -> Message:
+        return decode_message(data)
+
+    def report(self, agent: SdaRobot) -> SdaReport:
+        return SdaReport(
+            tuple(agent.awards),
+            tuple((a.task_of, a.service_of) for a in agent.services.values()),
+            agent.ended,
+        )
+
+    def outcome(self, end: RunEnd) -> ProtocolOutcome:
+        reports: tuple[SdaReport, ...] = end.reports
         rows = sorted(
-            (at, rnd, rank, robot.robot, task, service)
-            for robot in robots
-            for at, rnd, rank, task, service in robot.awards
+            (at, rnd, rank, robot, task, service)
+            for robot, report in enumerate(reports)
+            for at, rnd, rank, task, service in report.awards
         )
         order = {rnd: i + 1 for i, rnd in enumerate(sorted({row[1] for row in rows}))}
         trajectory = [(order[rnd], r, task, service) for _, rnd, _, r, task, service in rows]
-        replicas = [a for robot in robots for a in robot.services.values()]
+        replicas = [replica for report in reports for replica in report.replicas]
         agree = all(
-            np.array_equal(a.task_of, replicas[0].task_of)
-            and np.array_equal(a.service_of, replicas[0].service_of)
-            for a in replicas[1:]
+            np.array_equal(task_of, replicas[0][0]) and np.array_equal(service_of, replicas[0][1])
+            for task_of, service_of in replicas[1:]
         )
-        twice = any(len(robot.awards) > 1 for robot in robots)
+        twice = any(len(report.awards) > 1 for report in reports)
         delivered = True
         if replicas:
-            first = replicas[0]
-            S = max(sim.mission.n_services, 1)
-            wanted = np.where(first.task_of >= 0, first.task_of * S + first.service_of, -1)
-            performed = np.array([robot.performed_slot() for robot in robots], dtype=np.int64)
-            delivered = bool(np.array_equal(wanted, performed))
-        ended = all(robot.ended for robot in robots)
-        converged = ended and agree and delivered and not twice and not sim.cut
+            task_of, service_of = replicas[0]
+            S = max(end.context.mission.n_services, 1)
+            wanted = np.where(task_of >= 0, task_of * S + service_of, -1)
+            delivered = bool(np.array_equal(wanted, end.slots))
+        ended = all(report.ended for report in reports)
+        converged = ended and agree and delivered and not twice and not end.cut
         when = None
         if converged:
             when = max((row[0] for row in rows), default=0)
-        finder = getattr(getattr(self, "market", None), "finder", None)
-        return Outcome(
+        return ProtocolOutcome(
             iterations=len(order),
             trajectory=trajectory,
             converged=bool(converged),
@@ -1325,5 +1404,12 @@ class SdaProtocol(Protocol):
                 ("schedule", "max-wage"),
                 ("resend_tries", self.resend_tries),
             ),
-            work=0 if finder is None else int(finder.entries),
         )
+
+
+def _one_hop(a: int, b: int) -> int:
+    return 0 if a == b else 1
+
+
+def _nobody(i: int) -> npt.NDArray[np.int64]:
+    return np.zeros(0, dtype=np.int64)

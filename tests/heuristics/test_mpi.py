@@ -102,6 +102,71 @@ def test_lockstep_exchanges_and_one_robot_per_rank(
     assert run.exchanges == (algorithm != "grape-s")  # the pairwise step's one exchange
 
 
+@pytest.mark.parametrize(
+    ("algorithm", "mission", "spec", "options"),
+    [
+        # the service agents on robots 0-3 (rank 0), the task agents on 4-7 (rank 1)
+        pytest.param("sda", GridCell(8, 50, 4, 2).mission(3), LOCKSTEP, None, id="sda"),
+        pytest.param(
+            "sda", GridCell(12, 50, 4, 2).mission(1), RING, {"resend_tries": 3}, id="sda-ring"
+        ),
+        pytest.param(
+            "grape-s-select", GridCell(16, 25, 4, 2, 1.25).mission(5), LOCKSTEP, None, id="select"
+        ),
+        pytest.param(
+            "grape-s-select",
+            GridCell(12, 50, 4, 2, 1.25).mission(2),
+            RING,
+            {"exchange": False},
+            id="select-ring",
+        ),
+    ],
+)
+def test_lockstep_runs_of_every_protocol_are_the_simulators_runs(
+    algorithm: str, mission: Mission, spec: str, options: dict | None
+) -> None:
+    """SDA's message-driven agents (start, receive, timers) and GRAPE-S-Select's beliefs
+    with task bits, lock-step over 2 ranks: the simulator's run, move for move."""
+    sim = simulate(mission, algorithm, spec, seed=0, options=options)
+    run = mpi_run(mission, algorithm, spec, ranks=2, seed=0, options=options)
+    assert run.assignment.utility(mission) == sim.assignment.utility(mission)
+    assert np.array_equal(run.assignment.task, sim.assignment.task)
+    assert np.array_equal(run.assignment.service, sim.assignment.service)
+    assert np.array_equal(run.trajectory, sim.trajectory)
+    assert (run.iterations, run.rounds, run.messages, run.bytes, run.work) == (
+        sim.iterations,
+        sim.rounds,
+        sim.messages,
+        sim.bytes,
+        sim.work,
+    )
+    network = run.network
+    assert network.converged and network.beliefs_agree and not network.cut
+    assert (network.ticks, network.simulated_seconds, network.convergence_seconds) == (
+        sim.network.ticks,
+        sim.network.simulated_seconds,
+        sim.network.convergence_seconds,
+    )
+    transport = network.transport
+    assert transport.wire_messages == transport.received_messages > 0
+    assert transport.wire_bytes == transport.received_bytes
+    assert dict(run.options) == {**dict(sim.options), "engine": "mpi", "ranks": 2}
+
+
+def test_message_driven_agents_in_real_time() -> None:
+    """SDA free-running: messages handed over as they come, timers in real time, and the
+    ranks find the end by counting (nothing in flight, nobody active)."""
+    m = GridCell(12, 50, 4, 2).mission(1)
+    spec = "complete period=2ms latency=uniform:0.1ms:1ms"
+    run = mpi_run(m, "sda", spec, ranks=2, seed=0)
+    run.assignment.validate(m)
+    assert run.network.converged and not run.network.cut
+    assert run.assignment.utility(m) == simulate(m, "sda", spec, seed=0).assignment.utility(m)
+    transport = run.network.transport
+    assert transport.wire_messages == transport.received_messages > 0
+    assert transport.wire_bytes == transport.received_bytes
+
+
 @pytest.mark.parametrize("algorithm", ["grape-s", "pair-grape-s"])
 def test_real_time_runs_end_nash_stable_and_agreed(algorithm: str) -> None:
     """Free-running real-time clocks (the seed's 1-10 ms latency; a 20 ms period and 4
@@ -154,14 +219,15 @@ def test_cli_backend_mpi_json(mission_file: Path) -> None:
     assert data["options"]["engine"] == "mpi"
 
 
-def test_ranks_started_by_the_users_launcher(mission_file: Path) -> None:
+@pytest.mark.parametrize("algorithm", ["pair-grape-s", "sda"])
+def test_ranks_started_by_the_users_launcher(mission_file: Path, algorithm: str) -> None:
     """``mpiexec -n K python -m cfopt.mpi ...``: rank 0 alone prints the run."""
-    command = [*launcher(), "-n", "2", sys.executable, "-m", "cfopt.mpi", "pair-grape-s"]
+    command = [*launcher(), "-n", "2", sys.executable, "-m", "cfopt.mpi", algorithm]
     command += [str(mission_file), "--network", LOCKSTEP, "--seed", "0", "--json"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     data = json.loads(done.stdout)  # one JSON object: the other rank printed nothing
-    assert data["algorithm"] == "pair-grape-s" and data["network"]["transport"]["ranks"] == 2
+    assert data["algorithm"] == algorithm and data["network"]["transport"]["ranks"] == 2
     assert data["network"]["transport"]["launch_seconds"] is None
 
 
@@ -180,10 +246,10 @@ def test_bad_mpi_options_exit_2(mission_file: Path, extra: list[str], fragment: 
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], lines
 
 
-def test_algorithms_without_mpi_agents_are_refused(mission_file: Path) -> None:
-    done = cfopt_cli("run", "sda", str(mission_file), "--backend", "mpi")
-    assert done.returncode == 2 and "has no MPI agents" in done.stderr
-    assert "grape-s, pair-grape-s" in done.stderr
+def test_algorithms_without_agents_are_refused(mission_file: Path) -> None:
+    done = cfopt_cli("run", "rachna-dt", str(mission_file), "--backend", "mpi")
+    assert done.returncode == 2 and "has no distributed agents" in done.stderr
+    assert "grape-s, grape-s-select, pair-grape-s, pair-grape-s-chain, sda" in done.stderr
 
 
 def test_missing_launcher_names_the_install_command(mission_file: Path) -> None:

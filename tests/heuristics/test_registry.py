@@ -508,7 +508,7 @@ def test_sweep_cells_ask_the_spec_for_agents(fresh: AlgorithmRegistry) -> None:
 
     heuristics.register_algorithm(nobody)
     heuristics.register_algorithm(
-        nobody, name="nobody-agents", protocol="heuristics.simulate:GrapeSProtocol"
+        nobody, name="nobody-agents", protocol="heuristics.agents.grape_s:GrapeSProtocol"
     )
     cell = GridCell(12, 20, 3, 2, network="complete")
     sweep = Sweep(cells=(cell,), missions=1, algorithms=("nobody", "nobody-agents", "sda"))

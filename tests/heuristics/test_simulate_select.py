@@ -26,7 +26,8 @@ from heuristics.agents.grape_s_select import (
     encode_select_belief,
 )
 from heuristics.grape_s_select import grape_s_select
-from heuristics.simulate import DISTRIBUTED, simulate
+from heuristics.registry import get_algorithm
+from heuristics.simulate import simulate
 from proofs.strategies import missions
 
 LOCKSTEP = "complete sync=true"  # as tests/heuristics/test_simulate.py
@@ -120,7 +121,7 @@ def test_concurrent_phase_steps_resolve_by_the_mutex() -> None:
 
 def test_bad_options() -> None:
     m = Mission.from_arrays([[1], [1]], [[1]], [1.0])
-    assert ALGORITHM in DISTRIBUTED
+    assert get_algorithm(ALGORITHM).distributed
     with pytest.raises(MissionError, match="take exchange"):
         simulate(m, ALGORITHM, LOCKSTEP, options={"eps": 1})
     with pytest.raises(MissionError, match="True or False"):
