@@ -79,6 +79,7 @@ class Ledger:
             fill,
         )
         self.k_f, self.k_w, self.limit = market.k_f, market.k_w, market.limit
+        self.exact_limit = _exact_limit(finder)
         caps = np.asarray(finder.caps, dtype=bool)
         self.code = _codes(caps)
         self.narrow = caps.shape[1] <= 62  # the codes fit in int64
@@ -111,6 +112,7 @@ class Ledger:
         n = wage.size
         self.max_wage = int(wage.max(initial=0))
         self.fast = self.max_wage <= self.limit
+        self.exact = self.fast and self.max_wage <= self.exact_limit
         for j in list(self.kept):
             self._forget(j)
         if not self.fast:
@@ -133,8 +135,9 @@ class Ledger:
         top = int(self.wage[changed].max())
         if top > self.max_wage:
             self.max_wage = top
+            self.exact = self.exact and top <= self.exact_limit
         if not self.fast or self.max_wage > self.limit:
-            self.fast = False
+            self.fast = self.exact = False
             for j in list(self.kept):
                 self._forget(j)
             return
@@ -219,6 +222,17 @@ class Ledger:
         services = self._fill(j, robots_arr.tolist())
         assert services is not None
         return robots_arr, services, int(b.weight) + k
+
+    def least(self, j: int) -> int:
+        """The robot of least key having a service task ``j`` needs (``j`` possible): it
+        is in every cheapest bundle of ``j`` while :attr:`exact` holds.  O(the keys
+        walked)."""
+        mask, code, k_f = self.mask[j], self.code, self.k_f
+        for key in self.sorted:
+            i = key % k_f
+            if code[i] & mask:
+                return i
+        raise ValueError(f"task {j}: no robot has a service it needs")
 
     def _least_of_pool(self, j: int, k: int) -> tuple[list[int], int]:
         """The ``k`` robots of least key having a service ``j`` needs, and the largest key
@@ -321,6 +335,16 @@ class Ledger:
         slots = self.finder.slot_service[j]
         bits = np.asarray(have, dtype=np.int64)[:, None] >> slots
         return match_slots(bits & 1 == 1, slots)
+
+
+def _exact_limit(finder: Any) -> int:
+    """The largest wage (units of eps) up to which :meth:`BundleFinder.cheapest`'s
+    matching orders bundles exactly by (wages, flags, indices) for every task: its costs
+    stay below 2^53 with the flag and index terms kept, for the largest bundle.  O(m)."""
+    n = max(finder.n, 1)
+    k = max([int(x) for x in finder.k] + [1])
+    k_f = k * n
+    return ((2**53 - 1) // k - k_f - n) // ((k + 1) * k_f)
 
 
 def match_slots(

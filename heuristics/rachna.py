@@ -70,8 +70,6 @@ SCHEDULES = ("simultaneous", "sequential")
 MAX_ROUNDS = 10**5
 #: Jumps keep every wage (in units of eps) below this, so int64 never overflows.
 _WAGE_CAP = 2**62
-#: The largest price :class:`_BidLog` keeps in its int64 buffer.
-_INT64_MAX = 2**63 - 1
 #: The first checkpoint round at which the engine tries to prove that more than
 #: ``max_rounds`` rounds are needed (the seed's missions end long before).
 _PROVE_FROM = 16
@@ -637,54 +635,37 @@ class _Bid:
     price: int
 
 
-class _BidLog:
-    """The bids of the simultaneous rounds since the last checkpoint, what :func:`_leap`
-    replays: each bid's task, price and robots, in flat int64 buffers.
+#: A bid found again by :func:`_leap`: task, robots ascending, price in units of eps.
+Bought = tuple[int, npt.NDArray[np.int64], int]
 
-    A round has up to ``m`` bids and the span of Brent's cycle detection doubles, so a
-    :class:`_Bid` per bid (an object, two arrays and a Python integer, about 1 KB) made
-    the log the run's largest part (gigabytes over tens of thousands of rounds); here a
-    bid takes ``3 + k_j`` words (:attr:`cells`) and the services, which :func:`_leap`
-    does not read, are not kept.  A price past int64 (wages near ``_WAGE_CAP``) turns the
-    price buffer into a list.
+
+class _BidLog:
+    """Which tasks bid in each simultaneous round since the last checkpoint: what
+    :func:`_leap` replays (it searches the bundles again on the checkpoint's state, so
+    the bundles themselves are not kept).
+
+    :attr:`cells` counts ``3 + k_j`` words per bid and one per round, the size of a log
+    that kept every bid's task, price and robots, so the checkpoints that
+    :data:`_LOG_CELLS` forces fall where they fell with such a log.
     """
 
     def __init__(self) -> None:
         self.tasks = array("q")
-        self.prices: array[int] | list[int] = array("q")
-        self.ends = array("q")  # per bid: where its robots end in ``robots``
-        self.robots = array("q")
         self.round_ends = array("q")  # per round: where its bids end
+        self.cells = 0
 
-    @property
-    def cells(self) -> int:
-        """The words held, which :data:`_LOG_CELLS` bounds.  O(1)."""
-        return 3 * len(self.tasks) + len(self.robots) + len(self.round_ends)
-
-    def add(self, bids: list[_Bid]) -> None:
-        """Log one round's bids (at least one).  O(their robots)."""
-        prices = [bid.price for bid in bids]
-        if isinstance(self.prices, array) and max(prices) > _INT64_MAX:
-            self.prices = self.prices.tolist()
-        self.prices.extend(prices)
-        self.tasks.extend([bid.task for bid in bids])
-        robots = np.concatenate([bid.robots for bid in bids]).astype(np.int64, copy=False)
-        sizes = np.cumsum([bid.robots.size for bid in bids]) + len(self.robots)
-        self.ends.extend(sizes.tolist())
-        self.robots.frombytes(robots.tobytes())
+    def add(self, tasks: list[int], sizes: int) -> None:
+        """Log one round's bidding tasks (at least one), index order, ``sizes`` their
+        robots in all.  O(tasks)."""
+        self.tasks.extend(tasks)
         self.round_ends.append(len(self.tasks))
+        self.cells += 3 * len(tasks) + sizes + 1
 
-    def rounds(self) -> Iterator[list[tuple[int, npt.NDArray[np.int64], int]]]:
-        """Each logged round's bids as ``(task, robots ascending, price)``, in order.
-        O(the bids logged)."""
-        robots = np.array(self.robots, dtype=np.int64)
-        tasks, prices, ends = self.tasks, self.prices, self.ends
+    def rounds(self) -> Iterator[list[int]]:
+        """Each logged round's bidding tasks, in order.  O(the bids logged)."""
         first = 0
         for last in self.round_ends:
-            yield [
-                (tasks[b], robots[ends[b - 1] if b else 0 : ends[b]], prices[b])
-                for b in range(first, last)
-            ]
+            yield self.tasks[first:last].tolist()
             first = last
 
 
@@ -712,6 +693,7 @@ def _simultaneous(
     market = _Market(finder)
     ledger = Ledger(market, wage, held, _services) if fast else None
     taken = np.zeros(n, dtype=bool)  # scratch: robots awarded in the current round
+    last: dict[int, npt.NDArray[np.int64]] = {}  # each task's latest bundle found
     holdings = _Holdings(wage, members, staffed, dead)
     limit = _RoundLimit(max_rounds, eps, utilities, finder, caps64, reqs, budget, once=True)
 
@@ -725,30 +707,30 @@ def _simultaneous(
             raise limit.too_many()
         out.rounds += 1
         out.work += dead_work
-        bids: list[_Bid] = []
+        bidders: list[int] = []
+        winners: list[_Bid] = []
         book = market.book(wage, held) if ledger is None else ledger.book()
+        lazy = ledger if ledger is not None and ledger.exact else None
         for j in np.flatnonzero(~staffed & ~dead).tolist():
             out.work += match_work[j]
-            found = book.best(j)
-            if found is None or found[2] > budget[j]:
+            # winner determination as the bids come, in index order: a bid wins when none
+            # of its robots went to an earlier bid of this round (each robot is sold at
+            # most once a round); all are made on the round's opening wages
+            bid = _bid(j, book, lazy, taken, wage, budget[j], last)
+            if bid is False:
                 dead[j] = True  # wages never fall: it can never afford a bundle again
                 dead_work += match_work[j]
                 if ledger is not None:
                     ledger.drop(j)
                 continue
-            bids.append(_Bid(j, *found))
-        if not bids:
+            bidders.append(j)
+            out.direct(2 * agents[j], bid_bytes[j])  # bid and answer, per agent
+            if isinstance(bid, _Bid):
+                winners.append(bid)
+        if not bidders:
             break
         out.iterations += 1
         it = out.iterations
-        # winner determination: in index order, a bid wins when none of its robots was
-        # awarded to an earlier bid of this round (each robot is sold at most once a round)
-        winners: list[_Bid] = []
-        for bid in bids:
-            out.direct(2 * agents[bid.task], bid_bytes[bid.task])  # bid and answer, per agent
-            if not taken[bid.robots].any():
-                taken[bid.robots] = True
-                winners.append(bid)
         won = np.concatenate([bid.robots for bid in winners])
         taken[won] = False
         before = holder[won]
@@ -782,7 +764,7 @@ def _simultaneous(
         if ledger is not None:
             ledger.update(moved)
         if jump:
-            log.add(bids)
+            log.add(bidders, sum(finder.k[j] for j in bidders))
         if jump and check.same_but_wages(out, dead):
             if _leap(out, check, wage, log, market, budget, max_rounds, limit.too_many):
                 span = 1
@@ -797,6 +779,44 @@ def _simultaneous(
         check = _checkpoint(out, holdings, limit)
         log = _BidLog()
     return out
+
+
+def _bid(
+    j: int,
+    book: Any,
+    lazy: Ledger | None,
+    taken: npt.NDArray[np.bool_],
+    wage: npt.NDArray[np.int64],
+    budget: int,
+    last: dict[int, npt.NDArray[np.int64]],
+) -> _Bid | bool:
+    """Task ``j``'s bid in a simultaneous round, settled against the robots ``taken`` by
+    the earlier winners of the round: the bid when it wins (its robots are then marked
+    taken), ``True`` when it bids and loses, ``False`` when it cannot afford a bundle.
+
+    With ``lazy`` (a ledger whose keys order bundles exactly) a task whose pool's least
+    key is taken loses without a search, if a bundle it found before still fits its
+    budget on these wages: the cheapest bundle is then affordable too, and it holds that
+    robot (exchanging the robot of one of its slots for a cheaper one having the service
+    would make a cheaper bundle).  O(k_j) then, else one search (:meth:`Ledger.best`).
+    """
+    if lazy is not None:
+        before = last.get(j)
+        if (
+            before is not None
+            and taken[lazy.least(j)]
+            and int(wage[before].sum()) + before.size <= budget
+        ):
+            return True
+    found = book.best(j)
+    if found is None or found[2] > budget:
+        return False
+    robots = found[0]
+    last[j] = robots
+    if taken[robots].any():
+        return True
+    taken[robots] = True
+    return _Bid(j, *found)
 
 
 def _services(
@@ -947,36 +967,49 @@ def _leap(
     top = int(delta.max())
     if top <= 0:
         return False
+    rows = out.moves.since(check.counts[4])
+    first = check.counts[0] + 1  # the iteration of the period's first round
+    cuts = np.searchsorted(rows[:, 0], np.arange(first, first + length + 1))
+
+    def replay(periods: int, against: list[list[Bought]] | None) -> list[list[Bought]] | None:
+        """Period 0's bids searched again on the opening wages of period ``periods``:
+        all of them, or ``None`` as soon as one is unaffordable or differs from its bid
+        in ``against``."""
+        w = check.wage + periods * delta
+        flags = (check.holder >= 0).astype(np.int64)
+        found_rounds: list[list[Bought]] = []
+        for r, tasks in enumerate(log.rounds()):
+            book = market.book(w, flags)
+            found_bids: list[Bought] = []
+            for b, task in enumerate(tasks):
+                found = book.best(task)
+                if found is None or found[2] > budget[task]:
+                    return None
+                if against is not None and not np.array_equal(found[0], against[r][b][1]):
+                    return None
+                found_bids.append((task, found[0], found[2]))
+            found_rounds.append(found_bids)
+            part = rows[cuts[r] : cuts[r + 1]]
+            bought = part[part[:, 2] >= 0, 1]
+            w[bought] += 1
+            flags[bought] = 1
+            flags[part[part[:, 2] < 0, 1]] = 0
+        return found_rounds
+
+    base = replay(0, None)  # the bids of the period just run
+    assert base is not None
     hi = (_WAGE_CAP - int(wage.max())) // top
     hi = min(hi, (max_rounds - out.rounds - 1) // length + 1)  # passing it proves too many
-    for bids in log.rounds():
+    for bids in base:
         for task, robots, price in bids:
             rise = int(delta[robots].sum())
             if rise > 0:
                 hi = min(hi, (budget[task] - price) // rise)
     if hi <= 0:
         return False
-    rows = out.moves.since(check.counts[4])
-    first = check.counts[0] + 1  # the iteration of the period's first round
-    cuts = np.searchsorted(rows[:, 0], np.arange(first, first + length + 1))
 
     def repeats(periods: int) -> bool:
-        w = check.wage + periods * delta
-        flags = (check.holder >= 0).astype(np.int64)
-        for r, bids in enumerate(log.rounds()):
-            book = market.book(w, flags)
-            for task, robots, _ in bids:
-                found = book.best(task)
-                if found is None or found[2] > budget[task]:
-                    return False
-                if not np.array_equal(found[0], robots):
-                    return False
-            part = rows[cuts[r] : cuts[r + 1]]
-            bought = part[part[:, 2] >= 0, 1]
-            w[bought] += 1
-            flags[bought] = 1
-            flags[part[part[:, 2] < 0, 1]] = 0
-        return True
+        return replay(periods, base) is not None
 
     if repeats(hi):
         periods = hi
