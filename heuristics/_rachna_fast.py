@@ -35,6 +35,9 @@ from sortedcontainers import SortedList
 #: Slot fillings remembered (a capability pattern recurs); the memo is emptied when full.
 _FILLS = 1 << 16
 _MISSING = object()
+_NO_KEY = np.iinfo(np.int64).max  # above every key of the ledger
+#: The most words :class:`LastBundles` may take (128 MiB); above, it is not made.
+_LAST_CELLS = 1 << 24
 Found = tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int]
 Fill = Callable[[Any, int, npt.NDArray[np.int64]], npt.NDArray[np.int64] | None]
 
@@ -94,6 +97,10 @@ class Ledger:
         for j, need in enumerate(self.need):
             self.need_matrix[j, need] = 1
         self.caps64 = caps.astype(np.int64)
+        self.need_bool = self.need_matrix > 0
+        self.present = 0  # every service some robot has
+        for c in set(self.code):
+            self.present |= c
         self.theta = np.full(len(self.need), -1, dtype=np.int64)  # -1: nothing kept
         self.kept: dict[int, Found] = {}
         self.kept_robots: dict[int, list[int]] = {}
@@ -234,6 +241,26 @@ class Ledger:
                 return i
         raise ValueError(f"task {j}: no robot has a service it needs")
 
+    def least_of(self, tasks: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+        """:meth:`least` of each task of ``tasks`` (all possible): the least key having
+        each service, found in one walk of the sorted keys until every service is seen,
+        then the least of them over each task's services.  O(the keys walked +
+        |tasks| S)."""
+        if not self.narrow:
+            return np.asarray([self.least(j) for j in tasks.tolist()], dtype=np.int64)
+        code, k_f, present = self.code, self.k_f, self.present
+        first = np.full(self.need_bool.shape[1], _NO_KEY, dtype=np.int64)
+        seen = 0
+        for key in self.sorted:
+            new = code[key % k_f] & ~seen
+            if new:
+                first[list(_bits(new))] = key
+                seen |= new
+                if seen == present:
+                    break
+        least = np.where(self.need_bool[tasks], first[None, :], _NO_KEY).min(axis=1)
+        return least % k_f
+
     def _least_of_pool(self, j: int, k: int) -> tuple[list[int], int]:
         """The ``k`` robots of least key having a service ``j`` needs, and the largest key
         among them.  O(the keys walked)."""
@@ -335,6 +362,50 @@ class Ledger:
         slots = self.finder.slot_service[j]
         bits = np.asarray(have, dtype=np.int64)[:, None] >> slots
         return match_slots(bits & 1 == 1, slots)
+
+
+class LastBundles:
+    """Each task's latest bundle found, padded to one row per task, so that whether each
+    of them still fits its task's budget on the current wages is one gather
+    (:meth:`affordable`).
+
+    Parameters
+    ----------
+    k : list of int
+        Each task's bundle size.
+    n : int
+        The robots; index ``n`` pads the rows (a robot of wage 0).
+    budget : list of int
+        Each task's budget in units of eps (capped at 2^62 here: a cap only makes
+        :meth:`affordable` say ``False`` more often).
+    """
+
+    def __init__(self, k: list[int], n: int, budget: list[int]) -> None:
+        self.robots = np.full((len(k), max(k, default=1)), n, dtype=np.int64)
+        self.has = np.zeros(len(k), dtype=bool)
+        self.k = np.asarray(k, dtype=np.int64)
+        self.budget = np.asarray([min(b, 2**62) for b in budget], dtype=np.int64)
+
+    @staticmethod
+    def fits(k: list[int]) -> bool:
+        """Whether the rows for bundles of sizes ``k`` stay within 2^24 words."""
+        return len(k) * max(k, default=1) <= _LAST_CELLS
+
+    def keep(self, j: int, robots: npt.NDArray[np.int64]) -> None:
+        """Remember ``robots`` (a complete bundle of task ``j``).  O(k_j)."""
+        self.robots[j, : robots.size] = robots
+        self.has[j] = True
+
+    def affordable(
+        self, tasks: npt.NDArray[np.int64], wage: npt.NDArray[np.int64]
+    ) -> npt.NDArray[np.bool_]:
+        """Per task of ``tasks``: whether its latest bundle, priced ``wage + 1`` a robot,
+        is within its budget (``False`` when it has none).  ``wage`` must be small
+        enough for the sums to stay in int64 (the ledger's keys ensure it).  O(n +
+        |tasks| max k)."""
+        padded = np.append(wage, 0)
+        price = padded[self.robots[tasks]].sum(axis=1) + self.k[tasks]
+        return self.has[tasks] & (price <= self.budget[tasks])
 
 
 def _exact_limit(finder: Any) -> int:

@@ -57,7 +57,7 @@ from heuristics._auction import (
     check_eps,
     check_order,
 )
-from heuristics._rachna_fast import Ledger, match_slots
+from heuristics._rachna_fast import LastBundles, Ledger, match_slots
 from heuristics._run import NO_DEADLINE, Deadline, Run, seed_label
 from heuristics.communication import comm_model, media_table, table_cost
 
@@ -681,8 +681,13 @@ def _simultaneous(
     bids are awarded); see :func:`rachna_dt` Notes for the method and the proofs."""
     _, reqs, n, m, finder, utilities, budget, _, caps64, m_s, match_work = _market(mission, eps)
     out = _Outcome(np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64))
-    agents = [len(c) for c in finder.counts]  # service agents a task bids to
-    bid_bytes = [2 * len(c) * HEADER_BYTES + ENTRY_BYTES * sum(c) for c in finder.counts]
+    # a bid and its answer, per service agent the task bids to: messages and bytes
+    agents2 = np.asarray([2 * len(c) for c in finder.counts], dtype=np.int64)
+    bid_bytes = np.asarray(
+        [2 * len(c) * HEADER_BYTES + ENTRY_BYTES * sum(c) for c in finder.counts], dtype=np.int64
+    )
+    work64 = np.asarray(match_work, dtype=np.int64)
+    k64 = np.asarray(finder.k, dtype=np.int64)
     wage = np.zeros(n, dtype=np.int64)  # units of eps
     held = np.zeros(n, dtype=np.int64)  # 1 when some task holds the robot
     holder, service = out.task, out.service  # shared: the assignment is the holder map
@@ -693,7 +698,7 @@ def _simultaneous(
     market = _Market(finder)
     ledger = Ledger(market, wage, held, _services) if fast else None
     taken = np.zeros(n, dtype=bool)  # scratch: robots awarded in the current round
-    last: dict[int, npt.NDArray[np.int64]] = {}  # each task's latest bundle found
+    last = LastBundles(finder.k, n, budget) if fast and LastBundles.fits(finder.k) else None
     holdings = _Holdings(wage, members, staffed, dead)
     limit = _RoundLimit(max_rounds, eps, utilities, finder, caps64, reqs, budget, once=True)
 
@@ -707,28 +712,19 @@ def _simultaneous(
             raise limit.too_many()
         out.rounds += 1
         out.work += dead_work
-        bidders: list[int] = []
-        winners: list[_Bid] = []
         book = market.book(wage, held) if ledger is None else ledger.book()
-        lazy = ledger if ledger is not None and ledger.exact else None
-        for j in np.flatnonzero(~staffed & ~dead).tolist():
-            out.work += match_work[j]
-            # winner determination as the bids come, in index order: a bid wins when none
-            # of its robots went to an earlier bid of this round (each robot is sold at
-            # most once a round); all are made on the round's opening wages
-            bid = _bid(j, book, lazy, taken, wage, budget[j], last)
-            if bid is False:
-                dead[j] = True  # wages never fall: it can never afford a bundle again
-                dead_work += match_work[j]
-                if ledger is not None:
-                    ledger.drop(j)
-                continue
-            bidders.append(j)
-            out.direct(2 * agents[j], bid_bytes[j])  # bid and answer, per agent
-            if isinstance(bid, _Bid):
-                winners.append(bid)
+        live = np.flatnonzero(~staffed & ~dead)
+        out.work += int(work64[live].sum())  # every task not staffed searches
+        lazy = ledger if ledger is not None and ledger.exact and last is not None else None
+        bidders, winners, gave_up = _settle(live, book, lazy, last, taken, wage, budget)
+        for j in gave_up:
+            dead[j] = True  # wages never fall: it can never afford a bundle again
+            dead_work += match_work[j]
+            if ledger is not None:
+                ledger.drop(j)
         if not bidders:
             break
+        out.direct(int(agents2[bidders].sum()), int(bid_bytes[bidders].sum()))  # bid, answer
         out.iterations += 1
         it = out.iterations
         won = np.concatenate([bid.robots for bid in winners])
@@ -764,7 +760,7 @@ def _simultaneous(
         if ledger is not None:
             ledger.update(moved)
         if jump:
-            log.add(bidders, sum(finder.k[j] for j in bidders))
+            log.add(bidders, int(k64[bidders].sum()))
         if jump and check.same_but_wages(out, dead):
             if _leap(out, check, wage, log, market, budget, max_rounds, limit.too_many):
                 span = 1
@@ -781,42 +777,58 @@ def _simultaneous(
     return out
 
 
-def _bid(
-    j: int,
+def _settle(
+    live: npt.NDArray[np.int64],
     book: Any,
     lazy: Ledger | None,
+    last: LastBundles | None,
     taken: npt.NDArray[np.bool_],
     wage: npt.NDArray[np.int64],
-    budget: int,
-    last: dict[int, npt.NDArray[np.int64]],
-) -> _Bid | bool:
-    """Task ``j``'s bid in a simultaneous round, settled against the robots ``taken`` by
-    the earlier winners of the round: the bid when it wins (its robots are then marked
-    taken), ``True`` when it bids and loses, ``False`` when it cannot afford a bundle.
+    budget: list[int],
+) -> tuple[list[int], list[_Bid], list[int]]:
+    """One simultaneous round's bids by the tasks ``live`` (ascending), all on the
+    round's opening wages, settled in index order: a bid wins when none of its robots
+    went to an earlier winner of the round (``taken``, which it marks).  Returns the
+    bidders, the winning bids and the tasks that cannot afford a bundle (they give up).
 
-    With ``lazy`` (a ledger whose keys order bundles exactly) a task whose pool's least
-    key is taken loses without a search, if a bundle it found before still fits its
-    budget on these wages: the cheapest bundle is then affordable too, and it holds that
-    robot (exchanging the robot of one of its slots for a cheaper one having the service
-    would make a cheaper bundle).  O(k_j) then, else one search (:meth:`Ledger.best`).
+    With ``lazy`` (a ledger whose keys order bundles exactly) a task loses without a
+    search when its pool's least key (:meth:`Ledger.least_of`) is taken and a bundle it
+    found before (``last``) still fits its budget on these wages: its cheapest bundle
+    is then affordable, and it holds that robot (putting the robot in the place of the
+    one filling a slot of a service it has would make a cheaper bundle).  Within a round
+    the wages and keys do not change, so these tests are made once for all the tasks and
+    read again only after a win.  O(|live| (S + max k) + (searches + 1) |live|).
     """
-    if lazy is not None:
-        before = last.get(j)
-        if (
-            before is not None
-            and taken[lazy.least(j)]
-            and int(wage[before].sum()) + before.size <= budget
-        ):
-            return True
-    found = book.best(j)
-    if found is None or found[2] > budget:
-        return False
-    robots = found[0]
-    last[j] = robots
-    if taken[robots].any():
-        return True
-    taken[robots] = True
-    return _Bid(j, *found)
+    bidders: list[int] = []
+    winners: list[_Bid] = []
+    gave_up: list[int] = []
+    least = sure = None
+    if lazy is not None and last is not None and live.size:
+        least = lazy.least_of(live)
+        sure = last.affordable(live, wage)
+    pos, size = 0, live.size
+    while pos < size:
+        if least is not None and sure is not None:
+            lose = sure[pos:] & taken[least[pos:]]
+            run = size - pos if lose.all() else int(np.argmin(lose))
+            if run:
+                bidders.extend(live[pos : pos + run].tolist())
+                pos += run
+                continue
+        j = int(live[pos])
+        pos += 1
+        found = book.best(j)
+        if found is None or found[2] > budget[j]:
+            gave_up.append(j)
+            continue
+        bidders.append(j)
+        robots = found[0]
+        if last is not None:
+            last.keep(j, robots)
+        if not taken[robots].any():
+            taken[robots] = True
+            winners.append(_Bid(j, *found))
+    return bidders, winners, gave_up
 
 
 def _services(
