@@ -204,15 +204,16 @@ def rachna_dt(
       changes, bisects.  (Bundles tied in cost, flags and index sum could in principle
       break the interval; their keys are then equal and the choice among them is the
       matching's.)  The periods are added in one step: wages, counts, and the trajectory
-      rows with shifted iterations.  To replay a period the simultaneous engine logs its
-      bids, ``3 + k_j`` words each, and Brent's span doubles, so on a long war with many
-      tasks bidding the log would outgrow the trajectory (up to ``m`` bids a round against
-      a few rows).  It is bounded (choice): when it holds 2^22 words (32 MiB) the engine
-      takes a new checkpoint at once, without doubling the span.  The trade-off: a cycle
-      whose period holds more bids than that is never detected (its rounds are run one by
-      one, with the same results), and the proof below is tried at every such
-      checkpoint (a maximum flow and, when it fails, one bundle search per task not
-      staffed), so once per 2^22 words of bids at most;
+      rows with shifted iterations.  To replay a period the simultaneous engine logs which
+      tasks bid in each of its rounds (one word a bid, one a round; the replay of period
+      0 finds the bids again on the checkpoint's state), and Brent's span doubles, so on
+      a long war with many tasks bidding the log would outgrow the trajectory (up to
+      ``m`` bids a round against a few rows).  It is bounded (choice): when it holds 2^22
+      words (32 MiB) the engine takes a new checkpoint at once, without doubling the
+      span.  The trade-off: a cycle whose period holds more bids than that is never
+      detected (its rounds are run one by one, with the same results), and the proof
+      below is tried at every such checkpoint (a maximum flow and, when it fails, one
+      bundle search per task not staffed), so once per 2^22 bids at most;
     * proves early that more than ``max_rounds`` rounds are needed, at every checkpoint
       from round 16 on (rounds 16, 32, 64, ... and after each jump): if the tasks not
       given up cannot all be staffed at once (a maximum flow from the robots to the
@@ -243,11 +244,20 @@ def rachna_dt(
     once each round (sequential: each time it acts), ``(robots having one of its services)
     x k_j`` entries.
 
-    Complexity.  Simultaneous: per round simulated, one O(n log n) sort of the robots by
-    (wage, flag, index), then per bidding task O(n) to rank its pool and O(k_j |S_j|) to
-    take the cheapest robots -- exact when they can fill its slots or when each service's
-    cheapest robots are disjoint, otherwise one matching on at most ``k_j |S_j|``
-    candidates; each jump costs O(log(u_max / eps)) replays of a period.  Sequential: per
+    Complexity.  Simultaneous, as the literal engine runs it: per round simulated, one
+    O(n log n) sort of the robots by (wage, flag, index), then per bidding task O(n) to
+    rank its pool and O(k_j |S_j|) to take the cheapest robots -- exact when they can
+    fill its slots or when each service's cheapest robots are disjoint, otherwise one
+    matching on at most ``k_j |S_j|`` candidates; each jump costs O(log(u_max / eps))
+    replays of a period.  The default engine keeps the sorted robots from round to round
+    (:mod:`heuristics._rachna_fast`) and settles a bid without a search when it must lose:
+    the robot of least (wage, flag, index) having one of a task's services is in every
+    cheapest bundle of that task (put it in the place of the robot filling a slot of one
+    of its services: a cheaper bundle), so a task whose such robot went to an earlier
+    winner of the round loses, and it bids (does not give up) when a bundle it found
+    before still fits its budget.  A round then costs O(m (S + max k_j)) in bulk plus a
+    search per bid that may win or give up; in a war among many tasks most bids lose to
+    the round's first winners.  Sequential: per
     round, one matching per acting task.  Both: O(n + m) per round for the cycle detection
     and O(m M + n S) at each of the O(log rounds) checkpoints.  The rounds simulated are at
     most ``max_rounds``; on the seed's missions, sequential runs end in 2-3 rounds and
@@ -644,9 +654,8 @@ class _BidLog:
     :func:`_leap` replays (it searches the bundles again on the checkpoint's state, so
     the bundles themselves are not kept).
 
-    :attr:`cells` counts ``3 + k_j`` words per bid and one per round, the size of a log
-    that kept every bid's task, price and robots, so the checkpoints that
-    :data:`_LOG_CELLS` forces fall where they fell with such a log.
+    :attr:`cells` counts the words held (one a bid, one a round), which
+    :data:`_LOG_CELLS` bounds.
     """
 
     def __init__(self) -> None:
@@ -654,12 +663,11 @@ class _BidLog:
         self.round_ends = array("q")  # per round: where its bids end
         self.cells = 0
 
-    def add(self, tasks: list[int], sizes: int) -> None:
-        """Log one round's bidding tasks (at least one), index order, ``sizes`` their
-        robots in all.  O(tasks)."""
+    def add(self, tasks: list[int]) -> None:
+        """Log one round's bidding tasks (at least one), in index order.  O(tasks)."""
         self.tasks.extend(tasks)
         self.round_ends.append(len(self.tasks))
-        self.cells += 3 * len(tasks) + sizes + 1
+        self.cells += len(tasks) + 1
 
     def rounds(self) -> Iterator[list[int]]:
         """Each logged round's bidding tasks, in order.  O(the bids logged)."""
@@ -687,7 +695,6 @@ def _simultaneous(
         [2 * len(c) * HEADER_BYTES + ENTRY_BYTES * sum(c) for c in finder.counts], dtype=np.int64
     )
     work64 = np.asarray(match_work, dtype=np.int64)
-    k64 = np.asarray(finder.k, dtype=np.int64)
     wage = np.zeros(n, dtype=np.int64)  # units of eps
     held = np.zeros(n, dtype=np.int64)  # 1 when some task holds the robot
     holder, service = out.task, out.service  # shared: the assignment is the holder map
@@ -760,7 +767,7 @@ def _simultaneous(
         if ledger is not None:
             ledger.update(moved)
         if jump:
-            log.add(bidders, int(k64[bidders].sum()))
+            log.add(bidders)
         if jump and check.same_but_wages(out, dead):
             if _leap(out, check, wage, log, market, budget, max_rounds, limit.too_many):
                 span = 1
