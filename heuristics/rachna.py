@@ -460,15 +460,21 @@ class _RoundLimit:
         return _too_many_rounds(self.max_rounds, self.finder.n, u_max, self.eps)
 
 
-def _checkpoint(out: _Outcome, holdings: _Holdings, limit: _RoundLimit) -> _Checkpoint:
+def _checkpoint(
+    out: _Outcome,
+    holdings: _Holdings,
+    limit: _RoundLimit,
+    price: Callable[[int], int] | None = None,
+) -> _Checkpoint:
     """The state at the end of round ``out.rounds``, for Brent's cycle detection.
 
     From round ``_PROVE_FROM`` on it first tries to prove that the run needs more than
     ``limit.max_rounds`` rounds, and raises :meth:`_RoundLimit.too_many` if so (see
-    :func:`rachna_dt` Notes, Termination).  O(n + m), plus :func:`_rounds_left`.
+    :func:`rachna_dt` Notes, Termination); ``price`` as in :func:`_rounds_left`.  O(n +
+    m), plus :func:`_rounds_left`.
     """
     if out.rounds >= _PROVE_FROM:
-        rest = _rounds_left(limit, holdings)
+        rest = _rounds_left(limit, holdings, price)
         if rest is not None and out.rounds + rest > limit.max_rounds:
             raise limit.too_many()
     return _Checkpoint(
@@ -779,9 +785,25 @@ def _simultaneous(
             span *= 2
         elif log.cells < _LOG_CELLS:  # a full log starts a new checkpoint, span unchanged
             continue
-        check = _checkpoint(out, holdings, limit)
+        check = _checkpoint(out, holdings, limit, _ledger_price(ledger))
         log = _BidLog()
     return out
+
+
+def _ledger_price(ledger: Ledger | None) -> Callable[[int], int] | None:
+    """``price(j)``: task ``j``'s least price (units of eps) on the ledger's current wages,
+    for :func:`_rounds_left`; ``None`` without a ledger whose keys still fit (the proof
+    then searches on the literal finder)."""
+    if ledger is None or not ledger.fast:
+        return None
+
+    def price(j: int) -> int:
+        found = ledger.best(j)
+        if found is None:  # pragma: no cover - a kept task always has a bundle of all robots
+            raise ValueError(f"task {j} has no bundle")
+        return found[2]
+
+    return price
 
 
 def _settle(
@@ -1124,14 +1146,19 @@ def _jump(
     return True
 
 
-def _rounds_left(limit: _RoundLimit, holdings: _Holdings) -> int | None:
+def _rounds_left(
+    limit: _RoundLimit, holdings: _Holdings, price: Callable[[int], int] | None = None
+) -> int | None:
     """A proven lower bound on the rounds still to come, or ``None`` (no bound found).
 
     See :func:`rachna_dt` Notes (Termination): if the tasks not given up cannot all be
     staffed at once, the auction ends only after one of them gives up, and task ``j``
     cannot give up while the price of a bundle it holds or can buy stays within its budget.
-    How fast a wage can rise is ``limit.once``'s (:class:`_RoundLimit`).  O(n S + K S) for
-    the flow, plus one bundle search per unstaffed task when it fails.
+    How fast a wage can rise is ``limit.once``'s (:class:`_RoundLimit`).  With
+    ``limit.once`` every bundle of ``j`` rises by at most ``k_j`` a round, so only the
+    least price matters: ``price(j)``, when given, is it (on the current wages, units of
+    eps, the ``k_j`` increments included), from a price book the caller keeps current.
+    O(n S + K S) for the flow, plus one bundle search per unstaffed task when it fails.
     """
     finder, caps64, reqs, budget = limit.finder, limit.caps64, limit.reqs, limit.budget
     wage, members, staffed, dead = holdings.wage, holdings.members, holdings.staffed, holdings.dead
@@ -1148,6 +1175,10 @@ def _rounds_left(limit: _RoundLimit, holdings: _Holdings) -> int | None:
         rise = np.minimum(caps64 @ tasks_per_service, live.size)
     least = None
     for j in live.tolist():
+        if limit.once and price is not None and not staffed[j]:
+            t = (budget[j] - price(j)) // finder.k[j]
+            least = t if least is None else min(least, t)
+            continue
         if staffed[j]:
             bundle = members[j]
         else:
@@ -1155,8 +1186,8 @@ def _rounds_left(limit: _RoundLimit, holdings: _Holdings) -> int | None:
             if b is None:  # pragma: no cover - a kept task always has a bundle of all robots
                 return None
             bundle = b.robots
-        price = int(wage[bundle].sum()) + finder.k[j]
-        t = (budget[j] - price) // int(rise[bundle].sum())
+        cost = int(wage[bundle].sum()) + finder.k[j]
+        t = (budget[j] - cost) // int(rise[bundle].sum())
         least = t if least is None else min(least, t)
     assert least is not None
     return max(least, 0) + 1

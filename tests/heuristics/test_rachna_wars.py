@@ -158,3 +158,23 @@ def test_last_bundles_price_each_task_on_the_current_wages():
     wage[2] += 1
     assert last.affordable(tasks, wage).tolist() == [False, False, True]
     assert LastBundles.fits([3] * 10) and not LastBundles.fits([2**13] * 2**12)
+
+
+@pytest.mark.parametrize(("S", "K", "load"), [(10, 5, 1.5), (5, 1, 2.0), (10, 1, 1.25)])
+def test_the_proof_reads_the_same_prices_from_the_ledger(S, K, load):
+    """At every checkpoint the lower bound on the rounds left, with the least prices read
+    from the ledger, equals the bound with the literal finder's searches."""
+    mission = cfopt.generate_mission(40, 50, S, K, load=load, seed=9)
+    rounds_left, bounds = rachna._rounds_left, []
+
+    def both(limit, holdings, price=None):
+        bound = rounds_left(limit, holdings, price)
+        assert bound == rounds_left(limit, holdings)
+        bounds.append((price is not None, bound))
+        return bound
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(rachna, "_rounds_left", both)
+        got = rachna._core(mission, Fraction(1, 40), 10**6)
+    assert_same(got, rachna._core(mission, Fraction(1, 40), 10**6, jump=False, fast=False))
+    assert any(with_price and bound is not None for with_price, bound in bounds)
