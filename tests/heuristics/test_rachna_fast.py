@@ -6,6 +6,7 @@ checkpoint of the cycle detection."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from fractions import Fraction
 
 import numpy as np
@@ -97,21 +98,30 @@ def test_public_run_is_unchanged(schedule):
     )
 
 
-def test_ledger_answers_as_the_literal_book_after_updates():
-    """Random wage and flag changes: every task's answer equals the literal book's."""
-    rng = np.random.default_rng(5)
-    mission = cfopt.generate_mission(50, 20, 5, 5, load=1.25, seed=2)
+def random_books(
+    mission: cfopt.Mission, steps: int, seed: int, most_changed: int, most_rise: int
+) -> Iterator[tuple[BundleFinder, Ledger, rachna._Book]]:
+    """The finder, the ledger and the literal book after each of ``steps`` random changes
+    of wages (rises below ``most_rise``) and flags (below ``most_changed`` robots)."""
+    rng = np.random.default_rng(seed)
+    n = mission.n_robots
     finder = BundleFinder(mission.capabilities, mission.requirements)
     market = rachna._Market(finder)
-    wage = np.zeros(50, dtype=np.int64)
-    held = np.zeros(50, dtype=np.int64)
+    wage = np.zeros(n, dtype=np.int64)
+    held = np.zeros(n, dtype=np.int64)
     ledger = Ledger(market, wage, held, rachna._services)
-    for _ in range(60):
-        changed = np.unique(rng.integers(0, 50, size=rng.integers(1, 6)))
-        wage[changed] += rng.integers(0, 2, size=changed.size)
+    for _ in range(steps):
+        changed = np.unique(rng.integers(0, n, size=rng.integers(1, most_changed)))
+        wage[changed] += rng.integers(0, most_rise, size=changed.size)
         held[changed] = rng.integers(0, 2, size=changed.size)
         ledger.update(changed)
-        book = market.book(wage, held)
+        yield finder, ledger, market.book(wage, held)
+
+
+def test_ledger_answers_as_the_literal_book_after_updates():
+    """Random wage and flag changes: every task's answer equals the literal book's."""
+    mission = cfopt.generate_mission(50, 20, 5, 5, load=1.25, seed=2)
+    for _, ledger, book in random_books(mission, 60, seed=5, most_changed=6, most_rise=2):
         for j in range(mission.n_tasks):
             got, want = ledger.best(j), book.best(j)
             assert (got is None) == (want is None)

@@ -18,19 +18,9 @@ from hypothesis import strategies as st
 
 import cfopt
 from heuristics import _rachna_fast, rachna
-from heuristics._auction import BundleFinder
 from heuristics._rachna_fast import LastBundles, Ledger
 from proofs.strategies import missions
-
-FIELDS = ("iterations", "rounds", "messages", "bytes", "work", "cast_messages", "cast_bytes")
-
-
-def assert_same(got: rachna._Outcome, want: rachna._Outcome) -> None:
-    assert np.array_equal(got.moves.array(), want.moves.array())
-    assert got.task.tolist() == want.task.tolist()
-    assert got.service.tolist() == want.service.tolist()
-    for name in FIELDS:
-        assert getattr(got, name) == getattr(want, name), name
+from tests.heuristics.test_rachna_fast import assert_same, random_books
 
 
 def engine_and_reference(mission: cfopt.Mission, eps: Fraction) -> None:
@@ -128,20 +118,9 @@ def test_wages_past_the_exact_matching_settle_every_bid_by_search():
 def test_the_least_key_of_a_pool_is_in_every_cheapest_bundle():
     """The lemma the shortcut rests on, on random wages and flags: ``least(j)`` (and
     ``least_of``) is a robot of task ``j``'s cheapest bundle on the literal book."""
-    rng = np.random.default_rng(7)
     mission = cfopt.generate_mission(60, 30, 10, 5, load=1.5, seed=3)
-    finder = BundleFinder(mission.capabilities, mission.requirements)
-    market = rachna._Market(finder)
-    wage = np.zeros(60, dtype=np.int64)
-    held = np.zeros(60, dtype=np.int64)
-    ledger = Ledger(market, wage, held, rachna._services)
-    tasks = np.flatnonzero(finder.possible)
-    for _ in range(40):
-        changed = np.unique(rng.integers(0, 60, size=rng.integers(1, 12)))
-        wage[changed] += rng.integers(0, 3, size=changed.size)
-        held[changed] = rng.integers(0, 2, size=changed.size)
-        ledger.update(changed)
-        book = market.book(wage, held)
+    for finder, ledger, book in random_books(mission, 40, seed=7, most_changed=12, most_rise=3):
+        tasks = np.flatnonzero(finder.possible)
         least = ledger.least_of(tasks)
         for j, x in zip(tasks.tolist(), least.tolist(), strict=True):
             assert x == ledger.least(j)
