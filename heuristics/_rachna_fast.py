@@ -36,6 +36,7 @@ from sortedcontainers import SortedList
 _FILLS = 1 << 16
 _MISSING = object()
 _NO_KEY = np.iinfo(np.int64).max  # above every key of the ledger
+_RANKED = 32  # the most robots per service :meth:`Ledger.blocked` looks at
 #: The most words :class:`LastBundles` may take (128 MiB); above, it is not made.
 _LAST_CELLS = 1 << 24
 Found = tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int]
@@ -97,10 +98,16 @@ class Ledger:
         for j, need in enumerate(self.need):
             self.need_matrix[j, need] = 1
         self.caps64 = caps.astype(np.int64)
-        self.need_bool = self.need_matrix > 0
-        self.present = 0  # every service some robot has
+        # per task and service the count r_js (0: not needed), capped for the walk of
+        # :meth:`blocked`, and per service the largest such count
+        self.rank_counts = np.zeros_like(self.need_matrix)
+        for j, (need, c) in enumerate(zip(self.need, finder.counts, strict=True)):
+            self.rank_counts[j, need] = np.minimum(c, _RANKED)
+        self.rank_top = self.rank_counts.max(axis=0, initial=0).tolist()
+        present = 0  # every service some robot has and some task needs
         for c in set(self.code):
-            self.present |= c
+            present |= c
+        self.open_mask = present & sum(1 << s for s, r in enumerate(self.rank_top) if r > 0)
         self.theta = np.full(len(self.need), -1, dtype=np.int64)  # -1: nothing kept
         self.kept: dict[int, Found] = {}
         self.kept_robots: dict[int, list[int]] = {}
@@ -230,36 +237,43 @@ class Ledger:
         assert services is not None
         return robots_arr, services, int(b.weight) + k
 
-    def least(self, j: int) -> int:
-        """The robot of least key having a service task ``j`` needs (``j`` possible): it
-        is in every cheapest bundle of ``j`` while :attr:`exact` holds.  O(the keys
-        walked)."""
-        mask, code, k_f = self.mask[j], self.code, self.k_f
+    def blocked(
+        self, tasks: npt.NDArray[np.int64], taken: npt.NDArray[np.bool_]
+    ) -> npt.NDArray[np.bool_]:
+        """Per task of ``tasks`` (all possible): whether its cheapest bundle surely holds a
+        robot of ``taken``, while :attr:`exact` holds (the keys then order bundles
+        exactly and the cheapest is unique).
+
+        For each service ``s`` a task needs ``r_s`` times, the ``r_s`` robots of least key
+        having ``s`` are in its cheapest bundle: were one of them out, a robot filling one
+        of its ``s`` slots would be outside them, of larger key, and exchanging the two
+        would give a cheaper bundle.  So a task is blocked when, for some ``s``, a taken
+        robot ranks among the first ``min(r_s, 32)`` having ``s``.  One walk of the sorted
+        keys finds each service's first taken robot (it stops when every service has one
+        or is past its largest count).  O(the keys walked x S + |tasks| S).
+        """
+        code, k_f, counts = self.code, self.k_f, self.rank_counts
+        rank = np.full(counts.shape[1], _NO_KEY, dtype=np.int64)
+        seen = [0] * counts.shape[1]
+        top = self.rank_top
+        open_mask = self.open_mask
         for key in self.sorted:
             i = key % k_f
-            if code[i] & mask:
-                return i
-        raise ValueError(f"task {j}: no robot has a service it needs")
-
-    def least_of(self, tasks: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-        """:meth:`least` of each task of ``tasks`` (all possible): the least key having
-        each service, found in one walk of the sorted keys until every service is seen,
-        then the least of them over each task's services.  O(the keys walked +
-        |tasks| S)."""
-        if not self.narrow:
-            return np.asarray([self.least(j) for j in tasks.tolist()], dtype=np.int64)
-        code, k_f, present = self.code, self.k_f, self.present
-        first = np.full(self.need_bool.shape[1], _NO_KEY, dtype=np.int64)
-        seen = 0
-        for key in self.sorted:
-            new = code[key % k_f] & ~seen
-            if new:
-                first[list(_bits(new))] = key
-                seen |= new
-                if seen == present:
-                    break
-        least = np.where(self.need_bool[tasks], first[None, :], _NO_KEY).min(axis=1)
-        return least % k_f
+            has = code[i] & open_mask
+            if not has:
+                continue
+            if taken[i]:
+                for s in _bits(has):
+                    rank[s] = seen[s]
+                open_mask &= ~has
+            else:
+                for s in _bits(has):
+                    seen[s] += 1
+                    if seen[s] >= top[s]:
+                        open_mask &= ~(1 << s)
+            if not open_mask:
+                break
+        return (counts[tasks] > rank[None, :]).any(axis=1)
 
     def _least_of_pool(self, j: int, k: int) -> tuple[list[int], int]:
         """The ``k`` robots of least key having a service ``j`` needs, and the largest key

@@ -251,15 +251,16 @@ def rachna_dt(
     matching on at most ``k_j |S_j|`` candidates; each jump costs O(log(u_max / eps))
     replays of a period.  The default engine keeps the sorted robots from round to round
     (:mod:`heuristics._rachna_fast`) and settles a bid without a search when it must lose:
-    the robot of least (wage, flag, index) having one of a task's services is in every
-    cheapest bundle of that task (put it in the place of the robot filling a slot of one
-    of its services: a cheaper bundle), so a task whose such robot went to an earlier
-    winner of the round loses, and it bids (does not give up) when a bundle it found
-    before still fits its budget.  A round then costs O(m (S + max k_j)) in bulk plus a
-    search per bid that may win or give up; in a war among many tasks most bids lose to
-    the round's first winners.  Sequential: per
-    round, one matching per acting task.  Both: O(n + m) per round for the cycle detection
-    and O(m M + n S) at each of the O(log rounds) checkpoints.  The rounds simulated are at
+    for each service ``s`` a task needs ``r_s`` times, the ``r_s`` robots of least
+    (wage, flag, index) having ``s`` are in every cheapest bundle of that task (were one
+    out, exchanging it for a robot filling an ``s`` slot would give a cheaper bundle), so
+    a task one of whose such robots went to an earlier winner of the round loses, and it
+    bids (does not give up) when a bundle it found before still fits its budget.  A
+    round then costs O(m (S + max k_j)) in bulk, a search per bid that may win or give
+    up, and a walk of the cheapest keys per win; in a war among many tasks most bids
+    lose to the round's first winners.  Sequential: per round, one matching per acting
+    task.  Both: O(n + m) per round for the cycle detection and O(m M + n S) at each of
+    the O(log rounds) checkpoints.  The rounds simulated are at
     most ``max_rounds``; on the seed's missions, sequential runs end in 2-3 rounds and
     simultaneous ones take about one round per conflict of the first bids (up to ``m + 1``
     rounds: every task first wants the same cheapest robots); see
@@ -821,24 +822,24 @@ def _settle(
     bidders, the winning bids and the tasks that cannot afford a bundle (they give up).
 
     With ``lazy`` (a ledger whose keys order bundles exactly) a task loses without a
-    search when its pool's least key (:meth:`Ledger.least_of`) is taken and a bundle it
-    found before (``last``) still fits its budget on these wages: its cheapest bundle
-    is then affordable, and it holds that robot (putting the robot in the place of the
-    one filling a slot of a service it has would make a cheaper bundle).  Within a round
-    the wages and keys do not change, so these tests are made once for all the tasks and
-    read again only after a win.  O(|live| (S + max k) + (searches + 1) |live|).
+    search when its cheapest bundle surely holds a taken robot (:meth:`Ledger.blocked`)
+    and a bundle it found before (``last``) still fits its budget on these wages: its
+    cheapest bundle is then affordable too.  Within a round the wages and keys do not
+    change, so these tests are made once for all the tasks and again, for the tasks
+    after it, after each win.  O(|live| (S + max k) + searches + wins (|live| S + the
+    keys walked)).
     """
     bidders: list[int] = []
     winners: list[_Bid] = []
     gave_up: list[int] = []
-    least = sure = None
+    blocked = sure = None
     if lazy is not None and last is not None and live.size:
-        least = lazy.least_of(live)
+        blocked = lazy.blocked(live, taken)
         sure = last.affordable(live, wage)
     pos, size = 0, live.size
     while pos < size:
-        if least is not None and sure is not None:
-            lose = sure[pos:] & taken[least[pos:]]
+        if blocked is not None and sure is not None:
+            lose = sure[pos:] & blocked[pos:]
             run = size - pos if lose.all() else int(np.argmin(lose))
             if run:
                 bidders.extend(live[pos : pos + run].tolist())
@@ -857,6 +858,8 @@ def _settle(
         if not taken[robots].any():
             taken[robots] = True
             winners.append(_Bid(j, *found))
+            if lazy is not None and blocked is not None and pos < size:
+                blocked[pos:] = lazy.blocked(live[pos:], taken)
     return bidders, winners, gave_up
 
 

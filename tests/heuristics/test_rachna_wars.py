@@ -115,16 +115,30 @@ def test_wages_past_the_exact_matching_settle_every_bid_by_search():
     assert_same(got, rachna._core(mission, Fraction(1, 4), 10**6, jump=False, fast=False))
 
 
-def test_the_least_key_of_a_pool_is_in_every_cheapest_bundle():
-    """The lemma the shortcut rests on, on random wages and flags: ``least(j)`` (and
-    ``least_of``) is a robot of task ``j``'s cheapest bundle on the literal book."""
+def test_a_blocked_task_s_cheapest_bundle_holds_a_taken_robot():
+    """The lemma the shortcut rests on, on random wages, flags and taken robots: when
+    :meth:`Ledger.blocked` says so, task ``j``'s cheapest bundle on the literal book holds
+    a taken robot; and it says so for every task whose ``r_s`` least robots having ``s``
+    hold one (those robots are all in the bundle)."""
+    rng = np.random.default_rng(11)
     mission = cfopt.generate_mission(60, 30, 10, 5, load=1.5, seed=3)
+    verdicts = []
     for finder, ledger, book in random_books(mission, 40, seed=7, most_changed=12, most_rise=3):
         tasks = np.flatnonzero(finder.possible)
-        least = ledger.least_of(tasks)
-        for j, x in zip(tasks.tolist(), least.tolist(), strict=True):
-            assert x == ledger.least(j)
-            assert x in book.best(j)[0].tolist()
+        taken = rng.random(60) < 0.08
+        blocked = ledger.blocked(tasks, taken)
+        order = np.asarray(ledger.sorted, dtype=np.int64) % ledger.k_f  # robots by key
+        for j, says in zip(tasks.tolist(), blocked.tolist(), strict=True):
+            bundle = book.best(j)[0]
+            firsts = [
+                order[finder.caps[order, s]][:r]
+                for s, r in zip(finder.need[j].tolist(), finder.counts[j], strict=True)
+            ]
+            assert set(np.concatenate(firsts).tolist()) <= set(bundle.tolist())
+            assert says == any(taken[first].any() for first in firsts)
+            assert not says or taken[bundle].any()
+            verdicts.append(says)
+    assert any(verdicts) and not all(verdicts)
 
 
 def test_last_bundles_price_each_task_on_the_current_wages():
