@@ -25,11 +25,19 @@ many robots share the slots.  A round costs O(S B + S log S) with ``B`` the numb
 distinct keys seen (a few dozen for the paper reward; up to the number of occupied slots
 for the utility reward, whose weights differ by task).
 
-Random order must draw ``rng.permutation(n)`` every round, as the literal engine does, so
-a round stays O(n) there; the mover is the wanting robot latest in the permutation, found
-by scanning the permutation from its end in doubling blocks, a robot's wish read from a
-``K x B`` table (capability type x bucket).  With ``w`` wanting robots a scan examines
-about ``n / w`` robots.
+Random order.  The mover of a round is the wanting robot latest in a uniformly random
+order of the robots; only the end of that order up to its first wanting robot matters, so
+the engine draws the order lazily from its end: uniform robot indices, independent, in
+doubling blocks (64, 128, ...), whose first appearances are a uniformly random order (the
+lazy counterpart of ``rng.permutation(n)`` read from its end), stopping at the block that
+holds a wanting robot.  The mover is the first wanting robot drawn: uniform over the
+wanting robots, as the last wanting robot of a uniform permutation is.  A robot's wish is
+read from the ``S x B`` table (its services x its slot's bucket).  With ``w`` wanting
+robots a round draws about ``n / w`` indices instead of a whole permutation; a round
+without a wanting robot (found from the bucket tops, as in index order) draws nothing.
+``eager=True`` draws ``rng.permutation(n)`` every round, as the literal engine does, and
+scans it from its end in doubling blocks: the same moves and draws as that engine (the
+cross-check of the bucket bookkeeping in random order).
 """
 
 from __future__ import annotations
@@ -204,11 +212,13 @@ def core_fast(
     capped: bool,
     rng: np.random.Generator,
     deadline: Deadline = NO_DEADLINE,
+    eager: bool = False,
 ) -> Outcome:
     """The GRAPE-S rounds with robots grouped by slot key; see the module notes.
 
     ``deadline`` is checked before each round: once reached, the rounds stop and the
-    outcome is marked ``cut``."""
+    outcome is marked ``cut``.  ``eager`` (random order only): draw a whole permutation
+    every round, as the literal engine does, instead of the lazy order."""
     n, S = caps.shape
     m = reqs.shape[0]
     tasks_per_service = (reqs > 0).sum(axis=0).astype(np.int64)
@@ -223,8 +233,10 @@ def core_fast(
             out.cut = True
             break
         out.rounds += 1
-        if order == "random":
+        if order == "random" and eager:
             mover = state.last_wanting_in(rng.permutation(n))
+        elif order == "random":
+            mover = state.first_wanting_drawn(rng)
         else:
             mover = state.last_wanting()
         if mover < 0:
@@ -364,27 +376,52 @@ class _State:
             result[s, b] = join < self.buckets.exact[b]
         return result
 
-    def last_wanting(self) -> int:
-        """The highest-index robot that wants to move, or -1 (index order)."""
-        want = self.wanting()
+    def last_wanting(self, want: npt.NDArray[np.bool_] | None = None) -> int:
+        """The highest-index robot that wants to move, or -1 (index order).
+
+        ``want``: the :meth:`wanting` table, if already computed this round."""
+        if want is None:
+            want = self.wanting()
         if not want.size:
             return -1
         top = self.buckets.top[:, : want.shape[1]]
         return int(np.where(want, top, -1).max())
 
+    def _hits(self, want_t: npt.NDArray[np.bool_], robots: npt.NDArray[np.int64]) -> Any:
+        """Whether each of ``robots`` wants to move, given the B x S ``want_t`` table."""
+        bucket = self.slot_bucket_arr[self.robot_slot_arr[robots]]
+        return (want_t[bucket] & self.caps[robots]).any(axis=1)
+
     def last_wanting_in(self, perm: npt.NDArray[np.int64]) -> int:
-        """The wanting robot latest in ``perm``, or -1 (random order)."""
+        """The wanting robot latest in ``perm``, or -1 (random order, eager)."""
         want_t = self.wanting().T  # B x S
         end, block = perm.size, _FIRST_BLOCK
         while end > 0:
             start = max(0, end - block)
             robots = perm[start:end][::-1]
-            bucket = self.slot_bucket_arr[self.robot_slot_arr[robots]]
-            hit = (want_t[bucket] & self.caps[robots]).any(axis=1)
+            hit = self._hits(want_t, robots)
             if hit.any():
                 return int(robots[int(hit.argmax())])
             end, block = start, 2 * block
         return -1
+
+    def first_wanting_drawn(self, rng: np.random.Generator) -> int:
+        """The first wanting robot among uniform draws, or -1 (random order, lazy).
+
+        Draws nothing when no robot wants to move; otherwise independent uniform robot
+        indices in doubling blocks (at most ``n`` a block) until a block holds a wanting
+        robot, and returns the first: a uniform choice among the wanting robots."""
+        want = self.wanting()
+        if self.last_wanting(want) < 0:
+            return -1
+        want_t, n = want.T, self.robot_slot_arr.size
+        block = min(_FIRST_BLOCK, n)
+        while True:
+            robots = rng.integers(0, n, size=block)
+            hit = self._hits(want_t, robots)
+            if hit.any():
+                return int(robots[int(hit.argmax())])
+            block = min(2 * block, n)
 
     def move(self, i: int) -> tuple[int, int]:
         """Apply robot ``i``'s best move; returns its new (task, service)."""

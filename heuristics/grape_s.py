@@ -120,9 +120,13 @@ def grape_s(
     with the same service and the same slot key want the same, so it keeps, per service
     and distinct exact key, the highest robot index (lazy heaps, O(S log n) per move) and
     finds the mover by comparing the ``S`` service bests with the ``B`` distinct keys:
-    O(S B) per round in index order (``B``: a few dozen for the paper reward).  Random
-    order still draws a fresh permutation per round, O(n), and scans it from its end.
-    Same moves, counts and generator draws as ``_core_literal``.
+    O(S B) per round in index order (``B``: a few dozen for the paper reward).  Same
+    moves and counts as ``_core_literal``.  In random order it draws the round's order
+    lazily, from its end, up to its last wanting robot (about ``n / w`` uniform draws with
+    ``w`` wanting robots) instead of a whole permutation: the same law of the run (each
+    round's mover is uniform over the robots that want to move, independently of the
+    earlier rounds' draws), other draws from ``seed`` than ``_core_literal``'s
+    ``rng.permutation(n)`` per round.
 
     Examples
     --------
@@ -137,6 +141,40 @@ def grape_s(
     >>> run.communication_cost("unicast", "full")     # 4 x 3 x 2 messages of 28 bytes
     (24, 672)
     """
+    options = {"seed": seed, "order": order, "capped": capped, "reward": reward}
+    return _run(mission, medium=medium, encoding=encoding, time_limit=time_limit, **options)
+
+
+def grape_s_eager(mission: Mission, **options: Any) -> Run:
+    """:func:`grape_s` drawing a whole ``rng.permutation(n)`` every round in random order.
+
+    The literal engine's draws, the reference the lazy order of :func:`grape_s` is tested
+    against: the same law, other draws (index order: the same run).  Same parameters and
+    result as :func:`grape_s`.
+
+    Examples
+    --------
+    >>> import cfopt
+    >>> m = cfopt.Mission.from_arrays([[1], [1], [1]], [[2], [1]], [5, 5])
+    >>> grape_s_eager(m).trajectory.tolist() == grape_s(m).trajectory.tolist()
+    True
+    """
+    return _run(mission, eager=True, **options)
+
+
+def _run(
+    mission: Mission,
+    *,
+    seed: SeedLike = None,
+    order: str = "index",
+    capped: bool = False,
+    reward: str = "paper",
+    medium: str = "broadcast",
+    encoding: str = "full",
+    time_limit: float | None = None,
+    eager: bool = False,
+) -> Run:
+    """:func:`grape_s`'s body; ``eager``: the literal engine's permutation per round."""
     started = time.perf_counter()
     deadline = Deadline(time_limit, started=started)
     require_mission(mission)
@@ -152,6 +190,7 @@ def grape_s(
         order,
         capped,
         rng,
+        eager=eager,
         deadline=deadline,
     )
     n_slots = mission.n_tasks * mission.n_services
@@ -184,17 +223,21 @@ def _core(
     rng: np.random.Generator,
     *,
     literal: bool = False,
+    eager: bool = False,
     deadline: Deadline = NO_DEADLINE,
 ) -> _Outcome:
     """The GRAPE-S rounds: the grouped engine, or ``_core_literal`` when ``literal``.
 
-    Both make the same moves, draw the same permutations from ``rng`` and return the same
-    outcome; :mod:`heuristics._grape_s_fast` describes the grouped engine.  Both check
-    ``deadline`` before each round.
+    In index order both make the same moves and return the same outcome.  In random order
+    the literal engine draws ``rng.permutation(n)`` every round; the grouped engine draws
+    the order lazily (the same law: each round's mover is uniform over the wanting
+    robots, other draws), or, with ``eager``, the literal engine's permutations, and then
+    makes the same moves with the same draws.  :mod:`heuristics._grape_s_fast` describes
+    the grouped engine.  Both check ``deadline`` before each round.
     """
     if literal:
         return _core_literal(caps, reqs, model, order, capped, rng, deadline)
-    return core_fast(caps, reqs, model, order, capped, rng, deadline)
+    return core_fast(caps, reqs, model, order, capped, rng, deadline, eager=eager)
 
 
 def _core_literal(

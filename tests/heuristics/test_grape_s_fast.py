@@ -29,11 +29,13 @@ BIG = 2**31 - 1
 
 
 def assert_same_core(mission: Mission, order: str, capped: bool, reward: str, seed: int) -> None:
-    """Both cores: the same outcome and the same draws left in the generator."""
+    """Both cores: the same outcome and the same draws left in the generator (random
+    order: the grouped core drawing the literal one's permutations; the lazy order's law
+    is tested in test_grape_s_lazy_order.py)."""
     model = reward_model(mission, reward)
     caps, reqs = mission.capabilities, mission.requirements
     rng_fast, rng_literal = np.random.default_rng(seed), np.random.default_rng(seed)
-    fast = _core(caps, reqs, model, order, capped, rng_fast)
+    fast = _core(caps, reqs, model, order, capped, rng_fast, eager=True)
     literal = _core(caps, reqs, model, order, capped, rng_literal, literal=True)
     assert fast.moves == literal.moves
     assert fast.task.tolist() == literal.task.tolist()
@@ -108,6 +110,7 @@ def test_cores_agree_on_degenerate_missions(order, capped, reward) -> None:
 @pytest.mark.parametrize("reward", ["paper", "utility"])
 def test_pair_grape_s_runs_the_same_with_either_core(order, reward, monkeypatch) -> None:
     mission = cfopt.generate_mission(300, 10, 10, 5, seed=4)
+    monkeypatch.setattr(pair_module, "_core", functools.partial(_core, eager=True))
     fast = pair_grape_s(mission, seed=9, order=order, reward=reward)
     monkeypatch.setattr(pair_module, "_core", functools.partial(_core, literal=True))
     literal = pair_grape_s(mission, seed=9, order=order, reward=reward)
