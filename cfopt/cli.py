@@ -19,12 +19,13 @@ import signal
 import sys
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from cfopt import __version__
 from cfopt.errors import MissionError, plural
-from cfopt.generate import generate_mission
-from cfopt.mission import Mission
+
+if TYPE_CHECKING:
+    from cfopt.mission import Mission
 
 __all__ = ["main"]
 
@@ -127,6 +128,8 @@ _FORCE_DIRECTORY_HELP = "replace the report files already in DIR (its other file
 # ------------------------------------------------------------------------ helpers
 def load_mission(path: str) -> Mission:
     """Load a mission from a path, or from standard input for ``-``."""
+    from cfopt.mission import Mission
+
     return Mission.from_json(sys.stdin if path == "-" else path)
 
 
@@ -276,6 +279,8 @@ def _add_generate(sub: argparse.ArgumentParser) -> Handler:
     sub.add_argument("--force", action="store_true", help=_FORCE_FILE_HELP)
 
     def run(args: argparse.Namespace) -> int:
+        from cfopt.generate import generate_mission
+
         mission = generate_mission(
             robots=args.robots,
             percent_tasks=args.percent_tasks,
@@ -1302,7 +1307,7 @@ def _error(text: str) -> None:
 
 
 def _interrupted(exc: KeyboardInterrupt) -> int:
-    from cfopt.experiments import SweepInterrupted
+    from cfopt.errors import SweepInterrupted  # light: a Ctrl-C may stop a start-up import
 
     name = getattr(exc, "signal_name", "SIGINT")
     if isinstance(exc, SweepInterrupted):

@@ -31,7 +31,6 @@ SchedulerSpec(address=None, local_workers=2)
 
 from __future__ import annotations
 
-import asyncio
 import concurrent.futures as cf
 import contextlib
 import functools
@@ -46,8 +45,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, TypeVar
 
-from cfopt.errors import MissionError, plural
-from cfopt.experiments import ExecutorFailed, WorkerDied
+from cfopt.errors import ExecutorFailed, MissionError, WorkerDied, plural
 
 __all__ = [
     "CONNECT_TIMEOUT",
@@ -464,6 +462,8 @@ def _require_scheduler(
     as a scheduler by ``deadline``: one that stays silent, one whose bytes are not dask's
     protocol, a dask worker.  (A client of such a server waits forever for the handshake
     or fails with a traceback, and cannot be closed.)"""
+    import asyncio  # here: the command line's start does not pay for it
+
     address = str(spec.address)
     try:
         identity = _by(deadline, lambda: asyncio.run(_identity(distributed, address, deadline)))
@@ -482,6 +482,8 @@ def _require_scheduler(
 async def _identity(distributed: ModuleType, address: str, deadline: float) -> Any:
     """The answer of the server at ``address`` to dask's ``identity`` call, by
     ``deadline`` (:func:`time.monotonic`)."""
+    import asyncio
+
     seconds = max(0.0, deadline - time.monotonic())
     # dask's own connect gives up a little earlier, so that its reason (connection
     # refused, unknown host) is the one told rather than the deadline's

@@ -6,7 +6,17 @@ import json
 import re
 from typing import Any
 
-__all__ = ["MissionError", "MissionTypeError", "describe", "key_path", "parameter_error", "plural"]
+__all__ = [
+    "ExecutorFailed",
+    "MissionError",
+    "MissionTypeError",
+    "SweepInterrupted",
+    "WorkerDied",
+    "describe",
+    "key_path",
+    "parameter_error",
+    "plural",
+]
 
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 _MAX_SHOWN = 60
@@ -118,3 +128,40 @@ def key_path(parent: str, key: str) -> str:
     if _IDENTIFIER.match(key):
         return f"{parent}.{key}" if parent else key
     return f"{parent}[{describe(key)}]"
+
+
+class WorkerDied(RuntimeError):
+    """A trial that never finished because the worker process running it died, each time
+    it ran (set on its future by a cluster executor such as :mod:`cfopt.cluster`).
+
+    The sweep records it as a failure with this message rather than a traceback (the
+    trial did not raise); it is not stored and the next run tries it again.  Also
+    importable as ``cfopt.experiments.WorkerDied``.
+    """
+
+
+class ExecutorFailed(MissionError):
+    """The executor can run no more trials (a cluster's scheduler is gone).
+
+    Set on a trial's future by the executor, it stops the sweep:
+    :func:`cfopt.experiments.run_sweep` raises it again, its message completed with the
+    trials kept in the store.  Also importable as ``cfopt.experiments.ExecutorFailed``.
+    """
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by SIGINT or SIGTERM; what it stored is kept (also importable as
+    ``cfopt.experiments.SweepInterrupted``).
+
+    ``completed`` trials were computed and committed by this sweep before it stopped;
+    the next run of the same sweep resumes after them.
+    """
+
+    def __init__(
+        self, store: str, completed: int, remaining: int, signal_name: str, extra: str = ""
+    ) -> None:
+        super().__init__(f"{signal_name}: {store}")
+        self.store, self.completed, self.remaining = store, completed, remaining
+        self.signal_name = signal_name
+        #: What else was kept, in words (the audit: "5 claim verdicts").
+        self.extra = extra

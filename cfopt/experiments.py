@@ -64,7 +64,15 @@ from cfopt._limits import MAX_TIME_LIMIT, require_memory
 from cfopt._progress import Progress
 from cfopt._workers import default_workers, make_executor, stop_executor
 from cfopt.checks import require_int, require_number
-from cfopt.errors import MissionError, describe, parameter_error, plural
+from cfopt.errors import (  # the executor failures: defined beside the errors, light to import
+    ExecutorFailed,
+    MissionError,
+    SweepInterrupted,
+    WorkerDied,
+    describe,
+    parameter_error,
+    plural,
+)
 from cfopt.generate import SEED_NETWORK, GridCell, paper_distributed_grid, paper_grid
 from cfopt.store import EXACT, ResultStore, Trial, store_lock
 
@@ -809,23 +817,6 @@ class SweepOutcome:
 ALGORITHM_FAILED = "AlgorithmFailed: "
 
 
-class WorkerDied(RuntimeError):
-    """A trial that never finished because the worker process running it died, each time
-    it ran (set on its future by a cluster executor such as :mod:`cfopt.cluster`).
-
-    The sweep records it as a failure with this message rather than a traceback (the
-    trial did not raise); it is not stored and the next run tries it again.
-    """
-
-
-class ExecutorFailed(MissionError):
-    """The executor can run no more trials (a cluster's scheduler is gone).
-
-    Set on a trial's future by the executor, it stops the sweep: :func:`run_sweep`
-    raises it again, its message completed with the trials kept in the store.
-    """
-
-
 def _format_failure(exc: BaseException, replay: str) -> str:
     """A failed trial's record: ``WorkerDied: ...``, ``AlgorithmFailed: ...`` and the
     replay line for a user's algorithm that raised (not cfopt's bug: no traceback), or
@@ -837,23 +828,6 @@ def _format_failure(exc: BaseException, replay: str) -> str:
     if isinstance(exc, AlgorithmFailed):
         return f"{type(exc).__name__}: {exc}\nreplay: {replay}"
     return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)).rstrip()
-
-
-class SweepInterrupted(KeyboardInterrupt):
-    """A sweep stopped by SIGINT or SIGTERM; what it stored is kept.
-
-    ``completed`` trials were computed and committed by this sweep before it stopped;
-    the next run of the same sweep resumes after them.
-    """
-
-    def __init__(
-        self, store: str, completed: int, remaining: int, signal_name: str, extra: str = ""
-    ) -> None:
-        super().__init__(f"{signal_name}: {store}")
-        self.store, self.completed, self.remaining = store, completed, remaining
-        self.signal_name = signal_name
-        #: What else was kept, in words (the audit: "5 claim verdicts").
-        self.extra = extra
 
 
 ExtraJob = tuple[Callable[..., Any], tuple[Any, ...], dict[str, Any]]
