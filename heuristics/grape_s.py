@@ -46,7 +46,8 @@ def grape_s(
         Feeds ``numpy.random.default_rng``; only ``order="random"`` draws from it.
     order : {"index", "random"}
         The order in which robots select each round: robot index order (the seed's
-        sequential simulator) or a fresh seeded permutation every round.
+        sequential simulator) or a fresh, uniformly random, seeded order every round
+        (drawn lazily, see Notes; :func:`grape_s_eager` draws a whole permutation).
     capped : bool, default False
         Forbid joining a slot that already has ``req[j, s]`` robots (Pair-GRAPE-S's first
         phase).
