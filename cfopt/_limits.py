@@ -12,12 +12,23 @@ import os
 
 from cfopt.errors import MissionError
 
-__all__ = ["MAX_TIME_LIMIT", "format_bytes", "physical_memory", "require_memory"]
+__all__ = [
+    "CONNECT_TIMEOUT",
+    "MAX_TIME_LIMIT",
+    "format_bytes",
+    "physical_memory",
+    "require_memory",
+]
 
 #: The longest time limit an exact solve takes, in seconds (about 31 years; the
 #: operating system's timers end not far beyond, from about 9.2e9 s).  No limit at all
 #: is ``None`` in the Python API.
 MAX_TIME_LIMIT = 1e9
+
+#: Seconds for a dask scheduler to answer (TCP connection, dask's handshake, its first
+#: answer), and to reconnect to one that went away, before giving up
+#: (:mod:`cfopt.cluster`).
+CONNECT_TIMEOUT = 5.0
 
 #: Used when the operating system does not say how much memory there is.
 _FALLBACK_MEMORY = 2**34

@@ -200,7 +200,7 @@ def _add_workers_option(sub: argparse.ArgumentParser) -> None:
 
 def _add_scheduler_option(sub: argparse.ArgumentParser) -> None:
     """``--scheduler ADDRESS|local:N``: run the trials on a dask cluster."""
-    from cfopt.cluster import CONNECT_TIMEOUT
+    from cfopt._limits import CONNECT_TIMEOUT
 
     sub.add_argument(
         "--scheduler",

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, TypeVar
 
+from cfopt._limits import CONNECT_TIMEOUT  # defined there: the --help text needs no dask
 from cfopt.errors import ExecutorFailed, MissionError, WorkerDied, plural
 
 __all__ = [
@@ -59,9 +60,6 @@ __all__ = [
     "parse_scheduler",
 ]
 
-#: Seconds for a scheduler to answer (TCP connection, dask's handshake, its first answer),
-#: and to reconnect to one that went away, before giving up.
-CONNECT_TIMEOUT = 5.0
 #: Seconds a running scheduler with no worker is given for one to join.
 WORKER_TIMEOUT = 30.0
 #: Seconds a teardown waits for the client and a local cluster to close.
