@@ -19,7 +19,10 @@ import cfopt
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Never imported by the command line's start, ``--help`` or ``validate``.
-HEAVY = ("scipy", "networkx", "cvxpy", "dask", "distributed", "matplotlib", "heuristics")
+HEAVY = (
+    *("scipy", "networkx", "cvxpy", "dask", "distributed", "matplotlib", "heuristics"),
+    *("cfopt.experiments", "cfopt.cluster", "asyncio"),
+)
 
 
 def _python(code: str, *args: str) -> subprocess.CompletedProcess[str]:
