@@ -37,7 +37,6 @@ import shutil
 import tempfile
 import textwrap
 import time
-import warnings
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
@@ -49,6 +48,15 @@ import numpy as np
 
 from cfopt._jsonio import make_directory, output_target, stat_path
 from cfopt.errors import MissionError, plural
+from cfopt.stats import (
+    ALPHA,
+    Outcome,
+    StatResult,
+    complete_blocks,
+    friedman,
+    kruskal,
+    mann_whitney,
+)
 from cfopt.store import EXACT, ResultStore, Trial
 
 __all__ = [
@@ -58,18 +66,17 @@ __all__ = [
     "TestResult",
     "box_plots",
     "cell_table",
+    "format_median_max",
     "format_range",
     "gap_report",
     "load_trials",
+    "megabytes",
     "report_from_store",
     "statistics",
     "summary_rows",
     "summary_text",
     "write_report",
 ]
-
-#: The significance level used in the statistics' wording.
-ALPHA = 0.05
 
 
 # ------------------------------------------------------------------------ metrics
@@ -85,8 +92,16 @@ class Metric:
     log_scale: bool = False
 
 
-def _megabytes(t: Trial) -> float | None:
-    return None if t.bytes is None else t.bytes / 1e6
+def megabytes(t: Trial, model: tuple[str, str] | None = None) -> float | None:
+    """A trial's communication in MB (10^6 bytes): as stored -- the algorithm's default
+    model, or the bytes a distributed run transmitted -- or under another ``(medium,
+    encoding)`` model of :attr:`Trial.communication` (``None`` when not recorded)."""
+    if model is None:
+        return None if t.bytes is None else t.bytes / 1e6
+    for medium, encoding, _, nbytes in t.communication or ():
+        if (medium, encoding) == model:
+            return float(nbytes) / 1e6
+    return None
 
 
 def _work(t: Trial) -> float | None:
@@ -102,7 +117,7 @@ METRICS: dict[str, Metric] = {
         Metric("percent_total", "Percent of total utility", "%", lambda t: t.percent_total),
         Metric("seconds", "Runtime", "s", lambda t: t.seconds, False, True),
         Metric("work", "Counted work (machine-independent runtime)", "units", _work, True, True),
-        Metric("megabytes", "Total communication", "MB", _megabytes, True, True),
+        Metric("megabytes", "Total communication", "MB", megabytes, True, True),
         Metric("sim_seconds", "Simulated runtime", "s", lambda t: t.sim_seconds, True, True),
     )
 }
@@ -414,106 +429,28 @@ def _format_p(p: float | None) -> str:
     return "<0.001" if p < 0.001 else f"{p:.3f}"
 
 
-def _all_equal(groups: Sequence[Sequence[float]]) -> bool:
-    flat = [x for g in groups for x in g]
-    return len(set(flat)) <= 1
-
-
-def _kruskal(
-    subject: str, metric: str, factor: str, subset: str, labelled: dict[str, list[float]]
+def _labelled(
+    result: StatResult, subject: str, metric: str, factor: str, subset: str
 ) -> TestResult:
-    from scipy import stats
-
-    labels = list(labelled)
-    groups = [labelled[g] for g in labels]
-    n = sum(len(g) for g in groups)
-    if _all_equal(groups):
-        return TestResult(
-            "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, None, None,
-            note="no variation: every value is the same",
-        )  # fmt: skip
-    ranks = _pooled_mean_ranks(labels, groups)
-    h, p = stats.kruskal(*groups)
-    posthoc = []
-    for i in range(len(labels)):
-        for j in range(i + 1, len(labels)):
-            _, pp = stats.mannwhitneyu(groups[i], groups[j], alternative="two-sided")
-            posthoc.append((labels[i], labels[j], float(pp)))
+    """A :class:`cfopt.stats.StatResult` with the report's labels."""
     return TestResult(
-        "Kruskal-Wallis", subject, metric, factor, subset, tuple(labels), n, float(h), float(p),
-        tuple(posthoc), mean_ranks=ranks,
-    )  # fmt: skip
-
-
-def _pooled_mean_ranks(
-    labels: Sequence[str], groups: Sequence[Sequence[float]]
-) -> tuple[tuple[str, float], ...]:
-    """Each group's mean rank among all values (average ranks for ties)."""
-    from scipy import stats
-
-    pooled = stats.rankdata(np.concatenate([np.asarray(g, dtype=float) for g in groups]))
-    out, start = [], 0
-    for label, group in zip(labels, groups, strict=True):
-        out.append((label, float(pooled[start : start + len(group)].mean())))
-        start += len(group)
-    return tuple(out)
-
-
-def _mannwhitney(
-    subject: str, metric: str, factor: str, subset: str, labelled: dict[str, list[float]]
-) -> TestResult:
-    from scipy import stats
-
-    labels = list(labelled)
-    a, b = (labelled[g] for g in labels)
-    if _all_equal([a, b]):
-        return TestResult(
-            "Mann-Whitney-Wilcoxon", subject, metric, factor, subset, tuple(labels),
-            len(a) + len(b), None, None, note="no variation: every value is the same",
-        )  # fmt: skip
-    u, p = stats.mannwhitneyu(a, b, alternative="two-sided")
-    return TestResult(
-        "Mann-Whitney-Wilcoxon", subject, metric, factor, subset, tuple(labels),
-        len(a) + len(b), float(u), float(p), mean_ranks=_pooled_mean_ranks(labels, [a, b]),
+        result.test, subject, metric, factor, subset, result.groups, result.n, result.statistic,
+        result.p_value, tuple((r.a, r.b, r.p_value) for r in result.posthoc),
+        result.note,
+        tuple(zip(result.groups, result.mean_ranks, strict=False)),
     )  # fmt: skip
 
 
 def _friedman(
     metric: Metric, subset: str, trials: Sequence[Trial], algorithms: Sequence[str]
 ) -> TestResult | None:
-    from scipy import stats
-
-    blocks: dict[tuple[str, int], dict[str, float]] = defaultdict(dict)
-    for t in trials:
-        v = metric.value(t)
-        if t.algorithm in algorithms and v is not None and math.isfinite(v):
-            blocks[(t.cell, t.mission_seed)][t.algorithm] = float(v)
-    rows = [[b[a] for a in algorithms] for b in blocks.values() if len(b) == len(algorithms)]
-    if len(algorithms) < 3 or len(rows) < 2:
+    """Friedman across ``algorithms`` with the missions as blocks (``None``: not enough
+    data -- fewer than 3 algorithms or 2 complete missions)."""
+    observations = [((t.cell, t.mission_seed), t.algorithm, metric.value(t)) for t in trials]
+    result = friedman(complete_blocks(observations, algorithms))
+    if result.outcome is Outcome.NOT_ENOUGH_DATA:
         return None
-    matrix = np.asarray(rows)
-    base = ("Friedman", "algorithms", metric.name, "algorithm", subset, tuple(algorithms))
-    ranks = np.apply_along_axis(stats.rankdata, 1, matrix).mean(axis=0)
-    mean_ranks = tuple(zip(algorithms, (float(r) for r in ranks), strict=True))
-    if _all_equal([matrix.ravel().tolist()]) or (matrix == matrix[:, :1]).all():
-        return TestResult(
-            *base, len(rows), None, None, note="no variation: ties in every block",
-            mean_ranks=mean_ranks,
-        )  # fmt: skip
-    import scikit_posthocs
-
-    chi2, p = stats.friedmanchisquare(*matrix.T)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        table = scikit_posthocs.posthoc_conover_friedman(matrix).to_numpy()
-    posthoc = [
-        (algorithms[i], algorithms[j], float(table[i, j]))
-        for i in range(len(algorithms))
-        for j in range(i + 1, len(algorithms))
-    ]
-    return TestResult(
-        *base, len(rows), float(chi2), float(p), tuple(posthoc), mean_ranks=mean_ranks
-    )
+    return _labelled(result, "algorithms", metric.name, "algorithm", subset)
 
 
 _FACTORS = (
@@ -557,8 +494,10 @@ def statistics(trials: Sequence[Trial]) -> list[TestResult]:
                             labelled[f"{get(t):g}"].append(float(v))
                     if len(labelled) < 2:
                         continue
-                    test = _mannwhitney if len(labelled) == 2 else _kruskal
-                    results.append(test(algorithm, metric_name, factor, subset, labelled))
+                    test = mann_whitney if len(labelled) == 2 else kruskal
+                    results.append(
+                        _labelled(test(labelled), algorithm, metric_name, factor, subset)
+                    )
         for metric_name in _TESTED_METRICS:
             metric = METRICS[metric_name]
             compositions = sorted({(t.service_types, t.services_per_robot) for t in at_load})
@@ -1262,14 +1201,19 @@ def distributed_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str
                 f"{sum(bool(t.converged) for t in group)}/{size}",
                 f"{sum(bool(t.beliefs_agree) for t in group)}/{size}",
                 f"{sum(bool(t.cut) for t in group)}/{size}",
-                _median_max(_values(group, METRICS["sim_seconds"])),
-                _median_max(_values(group, METRICS["megabytes"])),
+                format_median_max(_values(group, METRICS["sim_seconds"])),
+                format_median_max(_values(group, METRICS["megabytes"])),
             ]
         )  # fmt: skip
     return header, rows
 
 
-def _median_max(values: Sequence[float]) -> str:
+def format_median_max(values: Sequence[float]) -> str:
+    """``median (max)`` of the values, ``"-"`` without any.
+
+    >>> format_median_max([1.0, 2.0, 10.0])
+    '2 (10)'
+    """
     return "-" if not values else f"{_fmt(float(np.median(values)))} ({_fmt(max(values))})"
 
 
