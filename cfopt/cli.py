@@ -437,7 +437,7 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
 
     def run(args: argparse.Namespace) -> int:
         from cfopt._progress import Progress
-        from cfopt.reproduce import run_reproduce
+        from cfopt.reproduce import run_reproduce, verdict_tally
 
         with _trial_executor(args) as executor:
             result = run_reproduce(
@@ -453,10 +453,11 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
         if args.json:
             emit_json(result.to_dict())
         else:
-            counts = result.counts()
+            for line in result.sample:
+                print(f"sample, {line}")
             print(
-                f"{plural(len(result.comparisons), 'published figure')}: "
-                + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+                f"{plural(len(result.comparisons), 'comparison')} with the paper: "
+                f"{verdict_tally(result.counts())}"
             )
             print(
                 f"report: {result.directory / 'reproduction.md'}  "

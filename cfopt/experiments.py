@@ -400,8 +400,8 @@ def _grid_from_data(data: Any) -> tuple[tuple[GridCell, ...], int | None]:
 #: Modules left out of :func:`code_version` (they do not shape a trial's values).
 _NOT_TRIAL_SOURCES = {
     "cfopt": (
-        "cli.py", "report.py", "audit.py", "reproduce.py", "paper.py", "_progress.py",
-        "__main__.py", "cluster.py",
+        "cli.py", "report.py", "audit.py", "reproduce.py", "paper.py", "stats.py",
+        "_progress.py", "__main__.py", "cluster.py",
     )
 }  # fmt: skip
 
@@ -410,8 +410,8 @@ def code_version(scope: str = "trials") -> str:
     """``"<cfopt version>+<hash>"``: a digest of the sources that shape a result.
 
     With ``scope="trials"`` the hash covers ``cfopt`` (all modules but the CLI, the
-    cluster executor, the report, the orchestration of the audit and of the reproduction,
-    and the paper's figures), ``heuristics`` and ``proofs/stability.py``: any change there
+    cluster executor, the report and its statistics, the orchestration of the audit and of
+    the reproduction, and the paper's figures), ``heuristics`` and ``proofs/stability.py``: any change there
     is a new code version, and a sweep re-runs its trials rather than mixing results of
     different code.
     ``scope="claims"`` covers all of ``proofs`` as well (the claims' checks), and keys the
