@@ -343,6 +343,22 @@ def _table(
     return out
 
 
+def _caption(evaluation: str, table: str, after: str) -> list[Figure]:
+    """The captions of Tables 2 and 4: the 1 %-task rows (10:5) and the other compositions
+    had 100 % utility.  ``after``: the words that follow, to make the quote unique."""
+    quote = (
+        "five services per robot. 1% tasks had 100% utility, as did all other collective "
+        f"compositions {after}"
+    )
+    section = "§5.1.3" if evaluation == _C else "§6.1.3"
+    out = []
+    for percent, comp in ((1, "10:5"), (None, ("5:1", "5:5", "10:1"))):
+        figure = _fig(evaluation, section, "grape-s", "percent_utility", "min", 100, quote,
+                      "100%", percent=percent, comp=comp, table=f"{table} caption")  # fmt: skip
+        out.append(figure)
+    return out
+
+
 #: The curve of GRAPE-S's centralized communication over the sizes (§5.1.2).
 COMMUNICATION_CURVE = "GRAPE-S's centralized communication per collective size (5:1, 5:5, 10:1)"
 
@@ -738,13 +754,7 @@ _CENTRALIZED_UTILITY = [
         (50, 500, 100.0, 99.66, 100.0, "& 500 & 100.0 (99.66, 100.0)"),
         (50, 1000, 100.0, 99.69, 100.0, "& 1000 & 100.0 (99.69, 100.0)"),
     ]),
-    _fig(_C, "§5.1.3", "grape-s", "percent_utility", "min", 100,
-         "five services per robot. 1% tasks had 100% utility, as did all other collective "
-         "compositions Percent Tasks", "100%", percent=1, comp="10:5", table="Table 2 caption"),
-    _fig(_C, "§5.1.3", "grape-s", "percent_utility", "min", 100,
-         "five services per robot. 1% tasks had 100% utility, as did all other collective "
-         "compositions Percent Tasks", "100%", comp=("5:1", "5:5", "10:1"),
-         table="Table 2 caption"),
+    *_caption(_C, "Table 2", "Percent Tasks"),
     _fig(_C, "§5.1.3", "grape-s", "percent_utility", "min", 89.68,
          "GRAPE-S's lowest utility trial (i.e., 89.68%), which occurred for 100 robot "
          "collectives with ten services, five service per robot, and 10% tasks",
@@ -1091,12 +1101,7 @@ _DISTRIBUTED_UTILITY = [
         (50, 100, 100.0, 98.8, 100.0, "50& 100 & 100.0 (98.8, 100.0)"),
         (50, 500, 100.0, 99.3, 100.0, "& 500 & 100.0 (99.3, 100.0)"),
     ]),
-    _fig(_D, "§6.1.3", "grape-s", "percent_utility", "min", 100,
-         "five services per robot. 1% tasks had 100% utility, as did all other collective "
-         "compositions Percent &", "100%", percent=1, comp="10:5", table="Table 4 caption"),
-    _fig(_D, "§6.1.3", "grape-s", "percent_utility", "min", 100,
-         "five services per robot. 1% tasks had 100% utility, as did all other collective "
-         "compositions Percent &", "100%", comp=("5:1", "5:5", "10:1"), table="Table 4 caption"),
+    *_caption(_D, "Table 4", "Percent &"),
     _fig(_D, "§6.1.3", "sda", "percent_utility", "median", 5,
          "SDA's utilities with 500 robots and 50% tasks were generally even lower (i.e., <5%)",
          "<5%", relation="<", robots=500, percent=50),

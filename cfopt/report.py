@@ -1,7 +1,7 @@
 """Optimal-gap reports: the seed's tables, statistics and box plots, from a result store.
 
 From the trials of a sweep (:mod:`cfopt.experiments`) this module builds what the seed
-paper's evaluation shows (its centralized evaluation, Tables 3-5 and Figures 1-4):
+paper's evaluation shows (its §5: Table 2 and Figures 1-2; §6: Tables 4-5):
 
 * tables of ``median (min, max)`` per grid cell and algorithm for percent of optimum,
   percent of total utility, runtime and communication (:func:`cell_table`);
@@ -173,7 +173,7 @@ def _fmt(x: float) -> str:
 
 
 def format_range(values: Sequence[float]) -> str:
-    """``"median (min, max)"`` like the seed's Table 3; ``"-"`` for no values.
+    """``"median (min, max)"`` like the seed's Tables 2, 4 and 5; ``"-"`` for no values.
 
     >>> format_range([0.12, 0.5, 3.0]), format_range([])
     ('0.5 (0.12, 3)', '-')
@@ -329,7 +329,7 @@ def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
 
 
 def cell_table(trials: Sequence[Trial], metric: str | Metric) -> tuple[list[str], list[list[str]]]:
-    """The seed's Table 3 for every algorithm: ``median (min, max)`` per cell.
+    """The seed's Table 2 for every algorithm: ``median (min, max)`` per cell.
 
     Rows are cells (load, composition, percent tasks, collective size), columns the
     algorithms.  In the percent-of-optimum table a ``†`` marks a cell whose optimum was
@@ -1175,7 +1175,7 @@ def _write_files(
 
 
 def distributed_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]:
-    """The distributed runs in the layout of the seed's Tables 3 and 4: per algorithm and
+    """The distributed runs in the layout of the seed's Tables 4 and 5: per algorithm and
     cell (service types, services per robot, percent tasks, collective size) the percent
     of optimum as median (min, max), with how the runs ended, their simulated runtime and
     their communication."""
@@ -1233,7 +1233,7 @@ def _distributed_blocks(trials: Sequence[Trial]) -> list[tuple[str, Any]]:
             "is scored by that. Converged: all robots ended on one final belief; beliefs "
             "agree: on one belief; cut: stopped by the simulated time limit. Simulated s: "
             "simulated time until the robots stopped; MB: bytes transmitted on the medium. "
-            "The seed's distributed results (its Tables 3 and 4) use this layout.",
+            "The seed's distributed results (its Tables 4 and 5) use this layout.",
         ),
         ("table", distributed_table(trials)),
     ]

@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import dataclasses
+import functools
 import math
 import os
 import time
@@ -444,13 +445,17 @@ def _values(trials: Iterable[Trial], metric: Callable[[Trial], float | None]) ->
 
 def _paper_trials(f: Figure) -> int:
     """The paper's trials behind a figure: 25 in each cell of its grid it covers."""
+    covered = sum(f.covers(*cell) for cell in _grid(f.evaluation))
+    return PAPER_MISSIONS * covered
+
+
+@functools.cache
+def _grid(evaluation: str) -> tuple[tuple[int, float, int, int], ...]:
     from cfopt.experiments import distributed_grid
     from cfopt.generate import paper_grid
 
-    grid = paper_grid() if f.evaluation == "centralized" else distributed_grid()
-    covered = sum(f.covers(c.robots, c.percent_tasks, c.service_types, c.services_per_robot)
-                  for c in grid)  # fmt: skip
-    return PAPER_MISSIONS * covered
+    grid = paper_grid() if evaluation == "centralized" else distributed_grid()
+    return tuple((c.robots, c.percent_tasks, c.service_types, c.services_per_robot) for c in grid)
 
 
 def _si(x: float) -> str:
