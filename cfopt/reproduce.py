@@ -927,7 +927,7 @@ def _cfopt_test_side(result: StatResult, f: Figure) -> str:
     if trend and f.factor != "algorithm":
         direction += f"; {trend}"
     return (
-        f"cfopt: {result.test} {statistic}, p = {_two(p)} ({result.n} "
+        f"cfopt: {result.test} {statistic}, p = {'-' if p is None else f'{p:.2g}'} ({result.n} "
         f"{'blocks' if f.factor == 'algorithm' else 'trials'}): "
         f"{'significant' if significant else 'not significant'}{direction}; mean ranks "
         f"{result.direction()}"
@@ -1014,7 +1014,7 @@ def _compare(trials: Sequence[Trial], f: Figure) -> Comparison:
 def _disagreement(d: Disagreement) -> Comparison:
     f = d.figure
     return Comparison(
-        f, f"{f.section}: “{f.quote}”", f"the paper, {d.other_section}: “{d.other_quote}”",
+        f, f"“{f.quote}”", f"the paper, {d.other_section}: “{d.other_quote}”",
         None, 0, "-", PAPER_DISAGREES, d.why, "disagreement",
     )  # fmt: skip
 
