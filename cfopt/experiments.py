@@ -411,9 +411,9 @@ def code_version(scope: str = "trials") -> str:
 
     With ``scope="trials"`` the hash covers ``cfopt`` (all modules but the CLI, the
     cluster executor, the report and its statistics, the orchestration of the audit and of
-    the reproduction, and the paper's figures), ``heuristics`` and ``proofs/stability.py``: any change there
-    is a new code version, and a sweep re-runs its trials rather than mixing results of
-    different code.
+    the reproduction, and the paper's figures), ``heuristics`` and ``proofs/stability.py``:
+    any change there is a new code version, and a sweep re-runs its trials rather than
+    mixing results of different code.
     ``scope="claims"`` covers all of ``proofs`` as well (the claims' checks), and keys the
     audit's stored claim verdicts.
 

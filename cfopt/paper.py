@@ -231,9 +231,7 @@ class Disagreement:
 # ------------------------------------------------------------------------ builders
 _C, _D = "centralized", "distributed"
 _ALL_COMPOSITIONS = ("5:1", "5:5", "10:1", "10:5")
-_SEED_ALGORITHMS = ("grape-s", "pair-grape-s", "sda", "rachna-dt")
-_GRAPES_BASELINES = ("grape-s", "sda", "rachna-dt")
-_DISTRIBUTED = ("grape-s", "pair-grape-s", "sda")
+_GRAPES_BASELINES = tuple(a for a in CENTRALIZED_ALGORITHMS if a != PAIRWISE_ALGORITHM)
 
 
 def _tuple(value: object, kind: type) -> tuple | None:
@@ -507,29 +505,29 @@ _CENTRALIZED_RUNTIME = [
     _test(_C, "§5.1.1", "runtime_s", "friedman",
           "The algorithms’ performance with ten services and five services per robot differed "
           "significantly (χ_r² (n=200) = 484.15, p<0.01)", "<0.01", statistic="chi2",
-          value=484.15, n=200, factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5",
+          value=484.15, n=200, factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5",
           lowest="pair-grape-s", direction_quote="Pair-GRAPE-S was the fastest with ten "
           "services and five services per robot, closely followed by GRAPE-S"),
     _test(_C, "§5.1.1", "runtime_s", "conover",
           "Post hoc analysis found significant differences between Pair-GRAPE-S and all other "
           "algorithms (GRAPE-S/Pair-GRAPE-S: p=0.03, all others: p<0.01), as well as GRAPE-S and "
           "all other algorithms (GRAPE-S/Pair-GRAPE-S: p=0.03, all others: p<0.01)", "=0.03",
-          factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5",
+          factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5",
           pair=("grape-s", "pair-grape-s")),
     *_pairs(_C, "§5.1.1", "runtime_s", "conover",
             "Post hoc analysis found significant differences between Pair-GRAPE-S and all other "
             "algorithms (GRAPE-S/Pair-GRAPE-S: p=0.03, all others: p<0.01)",
             [("pair-grape-s", "sda", "<0.01", True, "pair-grape-s"),
              ("pair-grape-s", "rachna-dt", "<0.01", True, "pair-grape-s")],
-            factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5"),
+            factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5"),
     *_pairs(_C, "§5.1.1", "runtime_s", "conover",
             "as well as GRAPE-S and all other algorithms (GRAPE-S/Pair-GRAPE-S: p=0.03, all "
             "others: p<0.01)", [("grape-s", "sda", "<0.01", True, ""),
                                 ("grape-s", "rachna-dt", "<0.01", True, "")],
-            factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5"),
+            factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5"),
     _test(_C, "§5.1.1", "runtime_s", "conover",
           "No significant difference between SDA and RACHNA_dt was identified.", "",
-          factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5", pair=("sda", "rachna-dt"),
+          factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5", pair=("sda", "rachna-dt"),
           significant=False),
     _test(_C, "§5.1.1", "runtime_s", "friedman",
           "A significant difference was also identified across GRAPE-S, SDA, and RACHNA_dt "
@@ -706,12 +704,12 @@ _CENTRALIZED_COMMUNICATION = [
     _test(_C, "§5.1.2", "communication_mb", "friedman",
           "The algorithms' communication with ten services and five services per robot differed "
           "significantly (χ_r² (n=200) = 399.34, p<0.01)", "<0.01", statistic="chi2",
-          value=399.34, n=200, factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5",
+          value=399.34, n=200, factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5",
           lowest="sda", direction_quote="SDA required the least communication, <500 MB for "
           "most trials"),
     _test(_C, "§5.1.2", "communication_mb", "conover",
           "No significant difference between Pair-GRAPE-S and GRAPE-S was found", "",
-          factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5",
+          factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5",
           pair=("grape-s", "pair-grape-s"), significant=False),
     *_pairs(_C, "§5.1.2", "communication_mb", "conover",
             "but all other post hoc tests were significant (p<0.01).",
@@ -719,7 +717,7 @@ _CENTRALIZED_COMMUNICATION = [
              ("pair-grape-s", "sda", "<0.01", True, "sda"),
              ("pair-grape-s", "rachna-dt", "<0.01", True, ""),
              ("sda", "rachna-dt", "<0.01", True, "sda")],
-            factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5"),
+            factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5"),
     _test(_C, "§5.1.2", "communication_mb", "friedman",
           "The algorithms also differed significantly overall (χ_r² (n=800) = 1186.8, "
           "p<0.01).", "<0.01", statistic="chi2", value=1186.8, n=800, factor="algorithm",
@@ -809,19 +807,19 @@ _CENTRALIZED_UTILITY = [
     _test(_C, "§5.1.3", "percent_utility", "friedman",
           "the algorithms' utilities differed significantly for collectives with ten service "
           "types and five services per robot (χ_r² (n=200) = 39.00, p<0.01)", "<0.01",
-          statistic="chi2", value=39.00, n=200, factor="algorithm", groups=_SEED_ALGORITHMS,
+          statistic="chi2", value=39.00, n=200, factor="algorithm", groups=CENTRALIZED_ALGORITHMS,
           comp="10:5", lowest="grape-s", direction_quote="Specifically, GRAPE-S's utilities "
           "were significantly worse than the other algorithms (p<0.01)"),
     *_pairs(_C, "§5.1.3", "percent_utility", "conover",
             "Specifically, GRAPE-S's utilities were significantly worse than the other "
             "algorithms (p<0.01)", [("grape-s", other, "<0.01", True, "grape-s")
                                     for other in ("pair-grape-s", "sda", "rachna-dt")],
-            factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5"),
+            factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5"),
     *_pairs(_C, "§5.1.3", "percent_utility", "conover",
             "although largely near-optimal. No other significant differences were detected.",
             [("pair-grape-s", "sda", "", False, ""), ("pair-grape-s", "rachna-dt", "", False, ""),
              ("sda", "rachna-dt", "", False, "")],
-            factor="algorithm", groups=_SEED_ALGORITHMS, comp="10:5"),
+            factor="algorithm", groups=CENTRALIZED_ALGORITHMS, comp="10:5"),
     _test(_C, "§5.1.3", "percent_utility", "friedman",
           "The algorithms' percent utilities also differed significantly overall (χ_r² "
           "(n=800) = 17.63, p<0.01).", "<0.01", statistic="chi2", value=17.63, n=800,
@@ -975,7 +973,7 @@ _DISTRIBUTED_RUNTIME = [
     _test(_D, "§6.1.1", "runtime_s", "friedman",
           "The difference between GRAPE-S, Pair-GRAPE-S, and SDA with ten services and five "
           "services per robot was not mathematically significant", "", factor="algorithm",
-          groups=_DISTRIBUTED, comp="10:5", significant=False),
+          groups=DISTRIBUTED_ALGORITHMS, comp="10:5", significant=False),
 ]  # fmt: skip
 
 _DISTRIBUTED_COMMUNICATION = [
@@ -1045,7 +1043,7 @@ _DISTRIBUTED_COMMUNICATION = [
     _test(_D, "§6.1.2", "communication_mb", "friedman",
           "The algorithms' communication also differed significantly for collectives with ten "
           "service type and five services per robots (H (n=25) = 116.42, p<0.01).", "<0.01",
-          statistic="chi2", value=116.42, n=25, factor="algorithm", groups=_DISTRIBUTED,
+          statistic="chi2", value=116.42, n=25, factor="algorithm", groups=DISTRIBUTED_ALGORITHMS,
           comp="10:5", lowest="sda", direction_quote="Specifically, SDA's communication was "
           "significantly lower than GRAPE-S's (p<0.01) and Pair-GRAPE-S's (p<0.01).",
           note="the paper prints H; §6.1 says this comparison used Friedman tests"),
@@ -1053,10 +1051,10 @@ _DISTRIBUTED_COMMUNICATION = [
             "Specifically, SDA's communication was significantly lower than GRAPE-S's (p<0.01) "
             "and Pair-GRAPE-S's (p<0.01).", [("sda", "grape-s", "<0.01", True, "sda"),
                                              ("sda", "pair-grape-s", "<0.01", True, "sda")],
-            factor="algorithm", groups=_DISTRIBUTED, comp="10:5"),
+            factor="algorithm", groups=DISTRIBUTED_ALGORITHMS, comp="10:5"),
     _test(_D, "§6.1.2", "communication_mb", "conover",
           "No significant difference between GRAPE-S and Pair-GRAPE-S was identified.", "",
-          factor="algorithm", groups=_DISTRIBUTED, comp="10:5",
+          factor="algorithm", groups=DISTRIBUTED_ALGORITHMS, comp="10:5",
           pair=("grape-s", "pair-grape-s"), significant=False),
 ]  # fmt: skip
 
@@ -1156,8 +1154,8 @@ _DISTRIBUTED_UTILITY = [
           factor="algorithm", groups=("grape-s", "sda"), lowest="sda"),
     _test(_D, "§6.1.3", "percent_utility", "friedman",
           "No significant difference existed when only collectives ten service types and five "
-          "services per robot were considered.", "", factor="algorithm", groups=_DISTRIBUTED,
-          comp="10:5", significant=False),
+          "services per robot were considered.", "", factor="algorithm",
+          groups=DISTRIBUTED_ALGORITHMS, comp="10:5", significant=False),
 ]  # fmt: skip
 
 FIGURES: tuple[Figure, ...] = (
