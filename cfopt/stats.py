@@ -391,7 +391,7 @@ def kruskal(groups: Mapping[str, Sequence[float]], *, posthoc: bool = True) -> S
 def _kruskal_smallest_p(sizes: Sequence[int]) -> float:
     from scipy import stats
 
-    orders = itertools.permutations(sizes) if len(sizes) <= 6 else [sorted(sizes)]
+    orders = set(itertools.permutations(sizes)) if len(sizes) <= 6 else [sorted(sizes)]
     best = max(float(stats.kruskal(*_separated(order))[0]) for order in orders)
     return float(stats.chi2.sf(best, len(sizes) - 1))
 
@@ -472,7 +472,7 @@ def wilcoxon(groups: Mapping[str, Sequence[float]]) -> StatResult:
 
 # ------------------------------------------------------------------------- helpers
 def complete_blocks(
-    observations: Iterable[tuple[Hashable, str, float]], groups: Sequence[str]
+    observations: Iterable[tuple[Hashable, str, float | None]], groups: Sequence[str]
 ) -> dict[str, list[float]]:
     """Align ``(block, group, value)`` observations for a related-samples test: the
     blocks that have a value for every group, in the order first seen, as
