@@ -482,7 +482,18 @@ def _unit(f: Figure) -> str:
 
 def _paper_side(f: Figure) -> str:
     stated = "" if f.relation == "=" else f"{f.relation} "
-    return f"{f.statistic} {stated}{_si(f.value)}{_unit(f)} ({f.printed})"
+    value = f"{f.value:g}" if f.statistic == "count" else _si(f.value)
+    return f"{f.statistic} {stated}{value}{_unit(f)} ({f.printed})"
+
+
+def _range_text(threshold: tuple[float, float] | None, clock: str) -> str:
+    """A count's range in words: ``"at least 240 simulated seconds"``."""
+    low, high = threshold or (-math.inf, math.inf)
+    if math.isinf(high):
+        return f"at least {low:g} {clock}"
+    if low <= 0:
+        return f"under {high:g} {clock}"
+    return f"{low:g} to {high:g} {clock}"
 
 
 def _no_trials(f: Figure) -> Comparison:
@@ -631,6 +642,11 @@ def _not_comparable(
         why += f"; median counted work {_si(float(np.median(work)))}"
     if f.statistic in _RELATIVE[:3]:
         cfopt_side = f"cfopt: {_two(value)} ({what} of the {clock})"
+    elif f.statistic in _RELATIVE:
+        cfopt_side = f"cfopt: {f.statistic} {_two(value)} {clock} ({what}, {plural(n, 'trial')})"
+    elif f.statistic == "count":
+        within = _range_text(f.threshold, clock)
+        cfopt_side = f"cfopt: {int(value or 0)} of {plural(n, 'trial')} took {within}"
     else:
         cfopt_side = f"cfopt: {f.statistic} {_two(value)} {clock} over {what}"
     return Comparison(f, _paper_side(f), cfopt_side, value, n, "-", NOT_COMPARABLE, why)
@@ -926,8 +942,12 @@ def _cfopt_test_side(result: StatResult, f: Figure) -> str:
     direction = f"; lowest: {lowest}" if lowest else ""
     if trend and f.factor != "algorithm":
         direction += f"; {trend}"
+    test = f"{result.test} {statistic}"
+    if f.test == "conover":  # the pair's p, after the Friedman test it follows
+        overall = "-" if result.p_value is None else f"{result.p_value:.2g}"
+        test = f"Conover {'/'.join(f.pair)} (after Friedman {statistic}, p = {overall})"
     return (
-        f"cfopt: {result.test} {statistic}, p = {'-' if p is None else f'{p:.2g}'} ({result.n} "
+        f"cfopt: {test}, p = {'-' if p is None else f'{p:.2g}'} ({result.n} "
         f"{'blocks' if f.factor == 'algorithm' else 'trials'}): "
         f"{'significant' if significant else 'not significant'}{direction}; mean ranks "
         f"{result.direction()}"

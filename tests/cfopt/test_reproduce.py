@@ -156,9 +156,15 @@ def test_friedman_agrees_only_with_the_papers_direction() -> None:
         return {"percent_optimum": 95.0, "utility": 95.0} if algorithm == "grape-s" else {}
 
     for scope in (True, False):
-        c = _friedman(compare_figures(_trials(sda_lowest)), "percent_utility", scope)
+        found = compare_figures(_trials(sda_lowest))
+        c = _friedman(found, "percent_utility", scope)
         assert c.verdict is DIFFER and "direction reversed: lowest sda" in c.reason
         assert "lowest: grape-s" in c.paper and "lowest: sda" in c.against
+        # a post-hoc pair: its own p, after the Friedman test it follows
+        pair = _one(found, measure="percent_utility", test="conover", pair=("grape-s", "sda"),
+                    compositions=((10, 5),) if scope else None)  # fmt: skip
+        assert pair.against.startswith("cfopt: Conover grape-s/sda (after Friedman ")
+        assert pair.verdict is DIFFER and "lowest: sda" in pair.against
         c = _friedman(compare_figures(_trials(grape_lowest)), "percent_utility", scope)
         assert c.verdict is AGREE and "same direction" in c.reason
 
@@ -216,7 +222,10 @@ def test_simulated_seconds_are_not_compared_with_wall_time(comparisons) -> None:
                    and c.figure.measure == "runtime_s" and c.kind == "figure"]  # fmt: skip
     assert distributed and {c.verdict for c in distributed} == {NOT_COMPARABLE}
     c = _one(comparisons, evaluation="distributed", statistic="count", threshold=(0.0, 180.0))
-    assert c.value == 40 and "simulated seconds" in c.against
+    assert c.value == 40 and c.paper.startswith("count 496 ")  # the paper's 496, not all 500
+    assert c.against == "cfopt: 40 of 40 trials took under 180 simulated seconds"
+    longest = _one(comparisons, evaluation="distributed", statistic="count", value=1.0)
+    assert longest.against.endswith("took at least 240 simulated seconds")
     centralized = _one(comparisons, algorithm="grape-s", statistic="max", value=735.0,
                        compositions=None)  # fmt: skip
     assert centralized.verdict is NOT_COMPARABLE and "counted work" in centralized.reason
