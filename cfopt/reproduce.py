@@ -1003,8 +1003,6 @@ def _test(trials: Sequence[Trial], f: Figure) -> Comparison:
         return Comparison(f, _paper_test_side(f), side, statistic, result.n, "-",
                           NOT_COMPARABLE, why)  # fmt: skip
     verdict, reason = _test_verdict(result, f)
-    if f.note:
-        reason += f" ({f.note})"
     return Comparison(f, _paper_test_side(f), side, statistic, result.n, tolerance, verdict,
                       reason)  # fmt: skip
 
@@ -1017,6 +1015,15 @@ _COUNTS = ("solved_trials", "pairwise_step_ran", "optimal_trials", "cut_trials",
 
 
 def _compare(trials: Sequence[Trial], f: Figure) -> Comparison:
+    """One figure beside cfopt's, with the figure's note (how the paper is read) after
+    its reason."""
+    c = _compare_kind(trials, f)
+    if f.note and c.verdict is not NO_TRIALS:
+        c = dataclasses.replace(c, reason=f"{c.reason} ({f.note})")
+    return c
+
+
+def _compare_kind(trials: Sequence[Trial], f: Figure) -> Comparison:
     if f.test:
         return _test(trials, f)
     if f.measure in _COUNTS:

@@ -224,6 +224,7 @@ def test_simulated_seconds_are_not_compared_with_wall_time(comparisons) -> None:
     c = _one(comparisons, evaluation="distributed", statistic="count", threshold=(0.0, 180.0))
     assert c.value == 40 and c.paper.startswith("count 496 ")  # the paper's 496, not all 500
     assert c.against == "cfopt: 40 of 40 trials took under 180 simulated seconds"
+    assert "'<3 min' is said of 496 of them, not of all 500" in c.reason
     longest = _one(comparisons, evaluation="distributed", statistic="count", value=1.0)
     assert longest.against.endswith("took at least 240 simulated seconds")
     centralized = _one(comparisons, algorithm="grape-s", statistic="max", value=735.0,
