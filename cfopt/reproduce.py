@@ -529,7 +529,8 @@ def _region(f: Figure) -> tuple[float, float, str]:
         points = MEDIAN_POINTS if f.statistic in ("median", "every trial") else OTHER_POINTS
         if f.measure != "percent_utility":
             return p / VOLUME_FACTOR, p * VOLUME_FACTOR, f"within a factor {VOLUME_FACTOR:g}"
-        return p - points, p + points, f"within {points:g} percentage points"
+        unit = "percentage point" if points == 1 else "percentage points"
+        return p - points, p + points, f"within {points:g} {unit}"
     factor = VOLUME_FACTOR
     if f.relation in ("<", "<="):
         return p / factor, p, f"on the bound's side and within a factor {factor:g} of it"
@@ -978,7 +979,8 @@ def _test_verdict(result: StatResult, f: Figure) -> tuple[Verdict, str]:
             f"the paper {f.lowest}",
         )
     if f.trend and f.factor != "algorithm" and trend != f.trend:
-        return DIFFER, f"both significant, but cfopt's values {trend}, the paper's {f.trend}"
+        factor = f.factor.replace("_", " ")
+        return DIFFER, f"both significant, but with {factor} cfopt: {trend}; the paper: {f.trend}"
     stated = (
         "and the same direction" if (f.lowest or f.trend) else "(the paper states no direction)"
     )

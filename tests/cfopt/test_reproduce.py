@@ -264,6 +264,8 @@ def test_utility_extremes_and_medians(comparisons) -> None:
     median = _one(comparisons, robots=(100,), statistic="median", **table2)
     assert (median.value, median.verdict) == (95.5, INCONCLUSIVE)  # median of 91 and 100
     assert median.verdict_text == "inconclusive: n = 2" and "-4.50 points" in median.reason
+    assert median.tolerance == "within 1 percentage point"
+    assert low.tolerance == "within 5 percentage points"
     clean = _one(comparisons, robots=(500,), statistic="min", **table2)
     assert clean.verdict is AGREE  # 100 against 98.47: within 5 points
     overall = _one(comparisons, statistic="min", value=89.68, table="text")
@@ -307,6 +309,25 @@ def test_statistical_tests_with_the_papers_sets(fixture_trials, comparisons) -> 
     assert "lowest: rachna-dt" in runtime.against and "lowest: pair-grape-s" in runtime.paper
     header, rows = paper_tests_table(comparisons)
     assert header[-2:] == ["verdict", "why"] and len(rows) == len([f for f in FIGURES if f.test])
+
+
+def test_a_trend_against_the_papers_is_a_difference() -> None:
+    """GRAPE-S's centralized runtime falls with the percent tasks here; the paper's rises
+    (H = 271.95): both significant, the direction reversed."""
+
+    def falling(cell, i, algorithm):
+        if algorithm != "grape-s" or cell.network is not None:
+            return {}
+        return {"seconds": (1 + i / 100) / cell.percent_tasks}
+
+    only = figures(evaluation="centralized", algorithm="grape-s", test="kruskal",
+                   measure="runtime_s", factor="percent_tasks")  # fmt: skip
+    (c,) = compare_figures(_trials(falling), only)
+    assert c.verdict is DIFFER and "decreases" in c.against
+    assert (
+        c.reason
+        == "both significant, but with percent tasks cfopt: decreases; the paper: increases"
+    )
 
 
 def test_the_paper_disagrees_with_itself(comparisons) -> None:
