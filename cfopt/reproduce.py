@@ -934,6 +934,18 @@ def _test_outcome(result: StatResult, f: Figure) -> tuple[bool, float | None]:
     return result.significant, result.p_value
 
 
+def _p_text(p: float | None) -> str:
+    """A p-value in two significant digits, three where two would print the 5 % level.
+
+    >>> _p_text(0.0498), _p_text(0.0312), _p_text(None)
+    ('0.0498', '0.031', '-')
+    """
+    if p is None:
+        return "-"
+    text = f"{p:.2g}"
+    return f"{p:.3g}" if float(text) == ALPHA and p != ALPHA else text
+
+
 def _cfopt_test_side(result: StatResult, f: Figure) -> str:
     significant, p = _test_outcome(result, f)
     if result.outcome is not Outcome.TESTED:
@@ -945,10 +957,10 @@ def _cfopt_test_side(result: StatResult, f: Figure) -> str:
         direction += f"; {trend}"
     test = f"{result.test} {statistic}"
     if f.test == "conover":  # the pair's p, after the Friedman test it follows
-        overall = "-" if result.p_value is None else f"{result.p_value:.2g}"
+        overall = _p_text(result.p_value)
         test = f"Conover {'/'.join(f.pair)} (after Friedman {statistic}, p = {overall})"
     return (
-        f"cfopt: {test}, p = {'-' if p is None else f'{p:.2g}'} ({result.n} "
+        f"cfopt: {test}, p = {_p_text(p)} ({result.n} "
         f"{'blocks' if f.factor == 'algorithm' else 'trials'}): "
         f"{'significant' if significant else 'not significant'}{direction}; mean ranks "
         f"{result.direction()}"
