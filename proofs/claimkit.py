@@ -632,8 +632,8 @@ class PropertyCheck:
         """Grid, sweep, search, then the exhaustive fallback; the smallest failure found.
 
         The note is made from the same evaluations as the verdict: the tallies count every
-        mission checked (the exhaustive ones included), and the counterexample's own
-        labels are named with where it was found.
+        mission checked (the exhaustive ones and the shrunk counterexample included), and
+        the counterexample's own labels are named with where it was found.
         """
         tallies: Counter[str] = Counter()
         found: list[tuple[Evaluation, str]] = []
@@ -661,7 +661,9 @@ class PropertyCheck:
         if self.sweep:
             stop = " (stopped at the first failure)" if swept and found else ""
             notes.append(f"seed-family sweep n = 3..12: {swept} missions{stop}")
-        if shrunk is not None:
+        if shrunk is not None:  # a mission of its own: checked and tallied too
+            checked += 1
+            tallies.update(shrunk.tallies)
             found.append((shrunk, "the hypothesis search (shrunk)"))
         elif self.exhaustive is not None:
             scoped, exhausted = self._exhaust(claim, self.exhaustive(), tallies)
