@@ -38,9 +38,19 @@ Scaling claims (:func:`scaling_claim`)
     *holds* when the fitted interval lies at or below ``exponent + EXPONENT_TOLERANCE``,
     *fails* when it lies above, and is *inconclusive* otherwise.
 
+Statistical claims
+    A claim about a statistic (a median, an aggregate hypothesis) is checked on a sample:
+    :func:`median_estimate` gives the median with its distribution-free confidence
+    interval and the sample size, :func:`interval_verdict` turns it into *holds* (the
+    interval inside the bound), *fails* (wholly outside) or *inconclusive at this
+    budget*; :func:`paired_comparison` tallies paired values and tests them (Wilcoxon
+    signed-rank, one-sided both ways).  Such a verdict never has a counterexample, and a
+    larger budget can only turn *inconclusive* into one of the others.
+
 Any other check is an object with a ``check(claim, n_missions, seed)`` method returning
 ``(VerdictKind, missions checked, Counterexample or None, note)`` (:class:`ClaimCheck`),
-given to :class:`Claim` directly.
+given to :class:`Claim` directly.  A distributed claim names its network
+(:attr:`Claim.network`); :attr:`Verdict.scope_text` says the scope with it.
 
 Algorithms are run through :meth:`Claim.run`: the public registry
 (``heuristics.get_algorithm``) unless :meth:`Claim.with_algorithm` substituted another

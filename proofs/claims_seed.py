@@ -6,9 +6,11 @@ the missions it ranges over (its family and :class:`proofs.claimkit.Scope`) and 
 with :mod:`proofs.claimkit`'s machinery: property claims on seeded grid missions, a
 seed-family sweep, a hypothesis search with shrinking and (for the stability lemma and
 theorem) an exhaustive small-scope search; complexity claims by fitted exponents on size
-ladders.  The checks use ``proofs``' own stability checkers and call the algorithms
-through the public registry (``heuristics.get_algorithm``).  The seed's distributed claims
-are in :mod:`proofs.claims_distributed`; :data:`proofs.claims.CLAIMS` gathers them all.
+ladders; the hypothesis H4, an aggregate over the seed's 10:5 grid, by the paired test
+the paper's comparison comes down to (:class:`HypothesisMethod`).  The checks use
+``proofs``' own stability checkers and call the algorithms through the public registry
+(``heuristics.get_algorithm``).  The seed's distributed claims are in
+:mod:`proofs.claims_distributed`; :data:`proofs.claims.CLAIMS` gathers them all.
 
 Examples
 --------
@@ -54,7 +56,7 @@ from proofs.claimkit import format_number as fmt
 from proofs.scaling import fit_rungs
 from proofs.stability import is_pairwise_stable, nash_violations, pairwise_violations
 
-__all__ = ["LADDER_FAMILY", "SDA_LADDER_SIZES", "seed_claims"]
+__all__ = ["LADDER_FAMILY", "SDA_LADDER_SIZES", "HypothesisMethod", "seed_claims"]
 
 #: SDA's ladder: its counted work is ~n^3, so 400 robots would take seconds.
 SDA_LADDER_SIZES = (25, 50, 100, 200)
