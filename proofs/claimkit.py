@@ -44,8 +44,9 @@ Statistical claims
     interval and the sample size, :func:`interval_verdict` turns it into *holds* (the
     interval inside the bound), *fails* (wholly outside) or *inconclusive at this
     budget*; :func:`paired_comparison` tallies paired values and tests them (Wilcoxon
-    signed-rank, one-sided both ways).  Such a verdict never has a counterexample, and a
-    larger budget can only turn *inconclusive* into one of the others.
+    signed-rank, one-sided both ways).  Such a verdict never has a counterexample; a
+    decision needs the whole interval on one side, so a small budget (``--quick``) says
+    *inconclusive* where a larger one decides, rather than the opposite verdict.
 
 Any other check is an object with a ``check(claim, n_missions, seed)`` method returning
 ``(VerdictKind, missions checked, Counterexample or None, note)`` (:class:`ClaimCheck`),
@@ -1096,8 +1097,9 @@ def interval_verdict(
 ) -> VerdictKind:
     """``holds`` when the interval lies inside ``[lower, upper]``, ``fails`` when it lies
     wholly outside, ``inconclusive`` otherwise -- also without an interval (too few
-    values: inconclusive at this budget).  A sharper budget can only turn
-    ``inconclusive`` into one of the others.
+    values: inconclusive at this budget).  A decision needs the whole interval on one
+    side: a wider interval (a smaller sample) says ``inconclusive`` sooner than the
+    opposite verdict.
 
     >>> interval_verdict(median_estimate([99.5] * 8), lower=99).value
     'holds'

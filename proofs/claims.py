@@ -378,21 +378,27 @@ def short_scope(verdict: Verdict) -> str:
     return f"{base}, sim: {name}"
 
 
-def format_verdict_table(verdicts: Sequence[Verdict], *, width: int = 60) -> str:
+def format_verdict_table(
+    verdicts: Sequence[Verdict], *, width: int | None = None, columns: int = 120
+) -> str:
     """A plain-text table: id, verdict, scope (:func:`short_scope`), missions, size and
-    the statement (cut to ``width``).
+    the statement, cut to ``width`` characters (default: what keeps the rows within
+    ``columns``, at least 24).
 
     The counterexample size is ``robots/tasks/services``, ``-`` when there is none.
     """
     header = ("id", "verdict", "scope", "missions", "counterexample", "statement")
-    body = []
+    rows = []
     for v in verdicts:
-        text = " ".join(v.statement.split())
-        if len(text) > width:
-            text = text[: width - 3] + "..."
         size = "-" if v.counterexample is None else "/".join(map(str, v.counterexample.size))
-        row = (v.claim_id, v.verdict.value, short_scope(v), str(v.instances_checked), size, text)
-        body.append(row)
+        rows.append((v.claim_id, v.verdict.value, short_scope(v), str(v.instances_checked), size))
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
+    if width is None:
+        width = max(24, columns - sum(w + 2 for w in widths))
+    body = []
+    for v, row in zip(verdicts, rows, strict=True):
+        text = " ".join(v.statement.split())
+        body.append((*row, text if len(text) <= width else text[: width - 3] + "..."))
     widths = [max(len(row[i]) for row in [header, *body]) for i in range(len(header))]
     return "\n".join(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
