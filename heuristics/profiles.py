@@ -47,6 +47,7 @@ __all__ = [
     "LONGEST_RUN_S",
     "MOST_RUNS_S",
     "PROFILES",
+    "PROFILE_BROADCASTS_100",
     "SEED_PERIOD_MS",
     "SEED_PROFILE",
     "NetworkProfile",
@@ -73,6 +74,10 @@ MOST_RUNS_S = 3 * 60
 #: The profile's broadcast period, in whole milliseconds (the derivation's upper bound,
 #: 3.3 ms, rounded down).
 SEED_PERIOD_MS = 3
+#: Broadcasts per robot of distributed GRAPE-S under the profile at 100 robots (the
+#: median over one mission of each of the seed's 100-robot distributed cells, simulator
+#: seed 0: the claim D4-seed's figure), quoted by the derivation.
+PROFILE_BROADCASTS_100 = 400
 #: Quantile of an unbounded latency (exponential, lognormal) taken as its bound when the
 #: quiet window's floor is computed.
 _LATENCY_QUANTILE = 0.999
@@ -240,7 +245,11 @@ def seed_profile_derivation() -> list[str]:
         "override its fields (`seed loss=0.05`). Latency and loss are cfopt's default: the "
         "paper states neither. The profile matches the seed's broadcasts, not its bytes: "
         f"cfopt's belief is 16 + 4n bytes ({belief_bytes(100)} B at 100 robots, "
-        f"{belief_bytes(500):,} B at 500), the seed's broadcast {size:,.0f} B.",
+        f"{belief_bytes(500):,} B at 500), the seed's broadcast {size:,.0f} B. The window "
+        "is fitted to the 100-robot bound, so the settling ticks come on top: at 100 "
+        f"robots the profile's robots broadcast about {PROFILE_BROADCASTS_100} times, "
+        f"{PROFILE_BROADCASTS_100 / high100 - 1:.0%} above the seed's at most "
+        f"{high100:,.0f} (a consistency check of the order of magnitude, not a fit).",
         f"7. Cost. At 500 robots the profile runs 500 x {window500:,} = "
         f"{500 * window500 / 1e6:.0f} million ticks, hours in the simulator; the claims run "
         f"it at 100 robots ({math.ceil(coefficient * 100**3)} quiet ticks after the partition "

@@ -13,6 +13,7 @@ from cfopt.generate import SEED_NETWORK
 from heuristics import simulate
 from heuristics.network import NetworkSpec
 from heuristics.profiles import (
+    PROFILE_BROADCASTS_100,
     PROFILES,
     SEED_PROFILE,
     arrival_ticks,
@@ -135,6 +136,18 @@ def test_cfopt_default_sends_about_30_broadcasts_per_robot_at_100_robots() -> No
     run = simulate(m, "grape-s", SEED_NETWORK, seed=0)
     assert 25 <= run.network.transmissions / m.n_robots <= 35
     assert "about 30 times at 100 robots" in " ".join(seed_profile_derivation())
+
+
+def test_the_profile_overshoots_the_seeds_100_robot_bound_as_the_derivation_says() -> None:
+    # the window is fitted to the bound, the settling ticks come on top
+    m = cfopt.GridCell(100, 10, 5, 1).mission(0)
+    run = simulate(m, "grape-s", "seed", seed=0)
+    per_robot = run.network.transmissions / m.n_robots
+    assert abs(per_robot / PROFILE_BROADCASTS_100 - 1) < 0.15, per_robot
+    assert per_robot > seed_broadcasts_per_robot(100)[1]
+    assert "broadcast about 400 times, 20% above the seed's at most 333" in " ".join(
+        seed_profile_derivation()
+    )
 
 
 def test_cli_runs_the_profile_and_documents_it(tmp_path, capsys) -> None:
