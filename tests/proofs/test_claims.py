@@ -272,13 +272,18 @@ def test_h4_is_one_aggregate_hypothesis_with_the_tally_the_test_and_no_counterex
 def test_d5_is_about_utility_and_maps_the_limits_of_the_resilience() -> None:
     v = CLAIMS["D5"].check(1, seed=0)
     assert v.verdict is VerdictKind.HOLDS and v.counterexample is None
-    assert "distributed minus centralized percent utility: median 0.00 pp" in v.note
+    # "both algorithms'": GRAPE-S and Pair-GRAPE-S, each on 8 paired missions
+    assert CLAIMS["D5"].algorithms == ("grape-s", "pair-grape-s")
+    for name in ("GRAPE-S", "Pair-GRAPE-S"):
+        assert f"{name}, distributed minus centralized percent utility: median 0.00 pp" in v.note
+    assert v.note.count("n = 8), ") == 2 and v.note.count(": holds; worst") == 2
     assert "similar = within +-1 pp" in v.note and "Nash" not in v.note
     assert "the median first drops below -1 pp at" in v.note  # the ladder finds a limit
-    # a centralized GRAPE-S far worse on every mission: not similar
-    worse = CLAIMS["D5"].with_algorithm("grape-s", _worse("grape-s", 20)).check(1, seed=0)
-    assert worse.verdict is VerdictKind.FAILS
-    assert "distributed higher" in worse.note
+    # a centralized GRAPE-S, or Pair-GRAPE-S, far worse on every mission: not similar
+    for name in ("grape-s", "pair-grape-s"):
+        worse = CLAIMS["D5"].with_algorithm(name, _worse(name, 20)).check(1, seed=0)
+        assert worse.verdict is VerdictKind.FAILS, name
+        assert "distributed higher" in worse.note and ": fails; worst" in worse.note
 
 
 def test_statistical_claims_differ_between_budgets_only_by_inconclusive() -> None:
