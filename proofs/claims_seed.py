@@ -415,8 +415,10 @@ def seed_claims() -> list[Claim]:
             "GRAPE-S's was supported\"; §5: \"Pair-GRAPE-S's utilities were additionally "
             "hypothesized to be higher than GRAPE-S's for ten service collectives with five "
             'services per robot" (an aggregate hypothesis, which the paper tested over its '
-            "10:5 trials, §5.1.3; checked as one: the Wilcoxon signed-rank test of the paired "
-            "percent utilities, one-sided, alpha 0.05)",
+            "10:5 trials with Friedman's test and Conover's post-hoc comparisons of its four "
+            "algorithms, §5.1.3; checked as one on the two it names: the Wilcoxon signed-rank "
+            "test, the paper's paired test of two algorithms (§6.1), of the paired percent "
+            "utilities, one-sided, alpha 0.05)",
             "the seed's 10:5 grid: 100 robots (10 and 50 % tasks), 500 and 1000 robots (1, 10 "
             "and 50 % tasks), n_missions seeded achievable missions per cell",
             ("pair-grape-s", "grape-s"),
