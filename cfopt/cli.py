@@ -786,8 +786,12 @@ _NETWORK_HELP = (
     "lognormal:MEDIAN:SIGMA (durations with ns, us, ms or s; default constant:0ms), "
     "loss=P or loss=ge:P_GOOD_TO_BAD:P_BAD_TO_GOOD:LOSS_IN_BAD (default 0), "
     "medium=broadcast|unicast, period=D (clock, default 10ms), jitter=F (default 0.1), "
-    "sync=true (lock-step clocks); or a cfopt.network/1 JSON file. Example: "
-    "--network 'geometric radius=0.25 latency=uniform:1ms:20ms loss=0.05'"
+    "sync=true (lock-step clocks); or a cfopt.network/1 JSON file; or a profile in place "
+    "of the topology, its fields overridden by the tokens after it: 'seed' is the "
+    "seed-calibrated profile (complete, latency=uniform:1ms:10ms loss=0.01 as cfopt's "
+    "default, period=3ms, robots stopping ceil(n^3/3000) quiet ticks after their last "
+    "change: the broadcast period and halting rule the seed paper's figures imply). "
+    "Example: --network 'geometric radius=0.25 latency=uniform:1ms:20ms loss=0.05'"
 )
 
 

@@ -98,7 +98,7 @@ def _rank_main(argv: Sequence[str] | None) -> int:
     import numpy as np
 
     from heuristics.mpi import load_protocol, run_ranks
-    from heuristics.simulate import DEFAULT_TIME_LIMIT, QUIET_FACTOR
+    from heuristics.simulate import DEFAULT_TIME_LIMIT
 
     args = _parser().parse_args(argv)
     try:
@@ -113,7 +113,7 @@ def _rank_main(argv: Sequence[str] | None) -> int:
             args.network,
             seed=args.seed if args.entropy is None else np.random.default_rng(args.entropy),
             time_limit=DEFAULT_TIME_LIMIT if args.time_limit is None else args.time_limit,
-            quiet_factor=args.quiet_factor or QUIET_FACTOR,
+            quiet_factor=args.quiet_factor,
             reward=args.reward,
         )
         if run is None:

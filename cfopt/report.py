@@ -857,7 +857,9 @@ def _write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]],
 
 
 def _claims_table(claims: Sequence[Any]) -> tuple[list[str], list[list[str]]]:
-    header = ["id", "verdict", "missions", "counterexample", "seconds", "statement", "note"]
+    header = [
+        "id", "verdict", "scope", "missions", "counterexample", "seconds", "statement", "note",
+    ]  # fmt: skip
     rows = []
     for v in claims:
         ce = v.counterexample
@@ -865,6 +867,7 @@ def _claims_table(claims: Sequence[Any]) -> tuple[list[str], list[list[str]]]:
             [
                 v.claim_id,
                 v.verdict.value,
+                v.scope_text,
                 str(v.instances_checked),
                 "-" if ce is None else "{} robots, {} tasks, {} services".format(*ce.size),
                 f"{v.seconds:.1f}",
@@ -1146,6 +1149,7 @@ def _write_files(
                     f"`{claim_files[0].parent.as_posix()}`.",
                 )
             )
+        blocks += _profile_blocks(claims)
     figure_of = {(m, load): directory / f for m, load, f in _figure_names(trials)}
     for name in tables:
         metric = METRICS[name]
@@ -1215,6 +1219,16 @@ def format_median_max(values: Sequence[float]) -> str:
     '2 (10)'
     """
     return "-" if not values else f"{_fmt(float(np.median(values)))} ({_fmt(max(values))})"
+
+
+def _profile_blocks(claims: Sequence[Any]) -> list[tuple[str, Any]]:
+    """The derivation of every network profile the claims ran under (``seed``)."""
+    from heuristics.profiles import SEED_PROFILE, seed_profile_derivation
+
+    if not any(getattr(v, "network", None) == SEED_PROFILE for v in claims):
+        return []
+    lines = seed_profile_derivation()
+    return [("h2", "The seed-calibrated network profile"), *(("p", line) for line in lines)]
 
 
 def _distributed_blocks(trials: Sequence[Trial]) -> list[tuple[str, Any]]:

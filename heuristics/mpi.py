@@ -48,8 +48,8 @@ from heuristics.reward import REWARDS
 from heuristics.transport import mpi as transport
 from heuristics.transport.driver import (
     DEFAULT_TIME_LIMIT,
-    QUIET_FACTOR,
     network_spec,
+    quiet_factor_for,
     run_limits,
     seed_entropy,
     world_streams,
@@ -115,7 +115,7 @@ def mpi_run(
     ranks: int = 2,
     seed: int | None = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    quiet_factor: int = QUIET_FACTOR,
+    quiet_factor: int | None = None,
     reward: str = "paper",
     options: Mapping[str, Any] | None = None,
 ) -> Run:
@@ -182,6 +182,7 @@ def mpi_run(
     protocol = protocol_for(algorithm, options)
     spec = network_spec(network)
     ranks = check_ranks(mission.n_robots, ranks)
+    quiet_factor = quiet_factor_for(spec, mission.n_robots, quiet_factor)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
     seed = require_seed("seed", seed, generator=False)
     require_choice("reward", reward, REWARDS)
@@ -257,7 +258,7 @@ def run_ranks(
     *,
     seed: Any = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    quiet_factor: int = QUIET_FACTOR,
+    quiet_factor: int | None = None,
     reward: str = "paper",
     options: Mapping[str, Any] | None = None,
     comm: Any = None,

@@ -32,6 +32,7 @@ ticks, delays and losses, byte for byte.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
@@ -622,6 +623,11 @@ class NetworkSpec:
         Each tick's jitter bound as a fraction of the period, in [0, 1) (default 0.1).
     sync : bool
         ``True``: every robot ticks at ``k * period`` (no offset, no jitter).
+    profile : str, optional
+        The named profile (:data:`heuristics.profiles.PROFILES`, e.g. ``seed``) the spec
+        was written with: the spec is the profile's, with the tokens given after it
+        applied, and the profile's halting rule sets the run's quiet factor
+        (:meth:`quiet_factor`).  Its topology is the profile's.
     path : str, optional
         ``file`` only: the edge-list file the edges were read from (written back by
         :meth:`to_text`; not compared).
@@ -659,6 +665,7 @@ class NetworkSpec:
     period_ns: int = 10_000_000
     jitter: float = 0.1
     sync: bool = False
+    profile: str | None = None
     path: str | None = field(default=None, compare=False)
     #: Where the edges came from, for messages ("file=edges.txt", "net.json").
     origin: str | None = field(default=None, compare=False, repr=False)
@@ -690,7 +697,38 @@ class NetworkSpec:
             _raise(_general_problem(key, getattr(self, _FIELD_OF.get(key, key))), key)
         object.__setattr__(self, "period_ns", int(self.period_ns))
         object.__setattr__(self, "jitter", float(self.jitter))
+        self._check_profile()
         self._check_edges()
+
+    def _check_profile(self) -> None:
+        if self.profile is None:
+            return
+        from heuristics.profiles import PROFILES
+
+        if self.profile not in PROFILES:
+            raise MissionError(
+                f"profile: unknown network profile {describe(self.profile)} (expected "
+                f"{', '.join(PROFILES)})"
+            )
+        wanted = _profile_base(self.profile)["topology"]
+        if self.topology != wanted:
+            raise MissionError(
+                f"profile: the {self.profile} profile's topology is {wanted}, got "
+                f"{describe(self.topology)}"
+            )
+
+    def quiet_factor(self, n_robots: int) -> int | None:
+        """The quiet factor ``K`` its profile's halting rule gives a run of ``n_robots``
+        robots (``None`` without a profile: the simulator's default applies).
+
+        >>> NetworkSpec.parse("seed").quiet_factor(100), NetworkSpec().quiet_factor(100)
+        (334, None)
+        """
+        if self.profile is None:
+            return None
+        from heuristics.profiles import PROFILES
+
+        return PROFILES[self.profile].quiet(int(n_robots), self)
 
     def _check_edges(self) -> None:
         if self.topology != "file":
@@ -737,7 +775,10 @@ class NetworkSpec:
             loss=P | ge:P_GOOD_TO_BAD:P_BAD_TO_GOOD:LOSS_IN_BAD
             medium=broadcast|unicast  period=D  jitter=F  sync=true|false
 
-        Durations carry a unit (``ns``, ``us``, ``ms``, ``s``: ``5ms``, ``0.2s``).
+        A profile name (``seed``, :mod:`heuristics.profiles`) may stand for the topology:
+        the spec is then the profile's, and the tokens after it override its fields
+        (``seed loss=0.05``).  Durations carry a unit (``ns``, ``us``, ``ms``, ``s``:
+        ``5ms``, ``0.2s``).
         ``file=PATH`` reads an edge list now: a ``.json`` file holding a list of
         ``[robot_id, robot_id]`` pairs, or any other file with two robot ids per line
         (blank lines and ``#`` comments allowed); a path with spaces is taken whole
@@ -785,7 +826,11 @@ class NetworkSpec:
         head = tokens[0]
         values: dict[str, Any] = {}
         key, sep, value = head.partition("=")
-        if sep and key == "file":
+        if head in _profile_names():
+            base = _profile_base(head)
+            topology = base.pop("topology")
+            values.update(base, profile=head)
+        elif sep and key == "file":
             topology = "file"
             values.update(cls._read_edges(head, value))
         elif sep and (key in _GENERAL_KEYS or key in _PARAM_USAGE):
@@ -793,7 +838,11 @@ class NetworkSpec:
         elif head == "file":
             raise _token_error(head, "give the edge list as file=PATH")
         elif head not in _TOPOLOGY_PARAMS:
-            raise _token_error(head, f"unknown topology {head!r} (expected {_TOPOLOGY_LIST})")
+            raise _token_error(
+                head,
+                f"unknown topology {head!r} (expected {_TOPOLOGY_LIST}, or a profile: "
+                f"{', '.join(_profile_names())})",
+            )
         else:
             topology = head
         params = _TOPOLOGY_PARAMS[topology]
@@ -870,7 +919,9 @@ class NetworkSpec:
         ``latency``, ``loss``, ``medium``, ``period``, ``jitter`` and ``sync``, with the
         defaults of :meth:`parse`.  Values have the token syntax (``"latency":
         "uniform:1ms:5ms"``, ``"period": "10ms"``); numbers may also be JSON numbers and
-        ``sync`` a JSON boolean.  Unknown keys are errors; the first broken rule raises
+        ``sync`` a JSON boolean.  ``profile`` (optional, a profile name such as
+        ``"seed"``) starts from that profile's spec, the other keys overriding it
+        (``topology`` may then be left out).  Unknown keys are errors; the first broken rule raises
         :class:`~cfopt.MissionError` naming the key.  ``origin`` (a file name) starts the
         messages of errors found later, when the edges meet a mission in :meth:`build`.
         O(keys + edges).
@@ -879,19 +930,29 @@ class NetworkSpec:
         NetworkSpec(topology='file', radius=None, p=None, k=None, edges=(('a', 'b'),), ...)
         """
         top = expect_object(data, "")
-        check_keys(top, "", ("topology",), ("format", "radius", "p", "k", "edges", *_GENERAL_KEYS))
+        optional = ("format", "profile", "radius", "p", "k", "edges", *_GENERAL_KEYS)
+        if "profile" in top:
+            optional = ("topology", *optional)
+        check_keys(top, "", () if "profile" in top else ("topology",), optional)
         if "format" in top and top["format"] != NETWORK_FORMAT:
             raise MissionError(f'format: must be "{NETWORK_FORMAT}", got {describe(top["format"])}')
-        topology = top["topology"]
+        values: dict[str, Any] = {}
+        if "profile" in top:
+            if top["profile"] not in _profile_names():
+                raise MissionError(
+                    f"profile: unknown network profile {describe(top['profile'])} (expected "
+                    f"{', '.join(_profile_names())})"
+                )
+            values.update(_profile_base(top["profile"]), profile=top["profile"])
+        topology = top.get("topology", values.pop("topology", None))
         if topology not in TOPOLOGIES:
             raise MissionError(
                 f"topology: unknown topology {describe(topology)} (expected "
                 f"{', '.join(TOPOLOGIES)})"
             )
         params = _TOPOLOGY_PARAMS[topology]
-        values: dict[str, Any] = {}
         for key, raw in top.items():
-            if key in ("format", "topology", "edges"):
+            if key in ("format", "topology", "profile", "edges"):
                 continue
             if key in _PARAM_USAGE and key not in params:
                 raise MissionError(f"{key}: {_only_for(key)}, not to {topology}")
@@ -941,7 +1002,8 @@ class NetworkSpec:
     def to_text(self) -> str:
         """The canonical one-line spec: the topology and its parameters, then the keys
         that differ from their defaults, in the order latency, loss, medium, period,
-        jitter, sync.  ``parse(spec.to_text()) == spec``.
+        jitter, sync.  ``parse(spec.to_text()) == spec``.  A profile's spec is its name,
+        then the keys that differ from the profile's values (``seed loss=0.05``).
 
         A ``file`` spec names its edges by the file they were read from (an edge list,
         or a network JSON file: ``file=net.json`` reads its edges); one built from a
@@ -959,12 +1021,13 @@ class NetworkSpec:
                 )
             parts = [f"file={self.path}"]
         else:
-            parts = [self.topology]
+            parts = [self.profile or self.topology]
         for key in _TOPOLOGY_PARAMS[self.topology]:
             value = getattr(self, key)
             parts.append(f"{key}={value if key == 'k' else _number_text(value)}")
+        reference = _DEFAULT_TEXTS if self.profile is None else _profile_texts(self.profile)
         for key, text in self._general_texts().items():
-            if text != _DEFAULT_TEXTS[key]:
+            if text != reference[key]:
                 parts.append(f"{key}={text}")
         return " ".join(parts)
 
@@ -989,6 +1052,8 @@ class NetworkSpec:
         {'format': 'cfopt.network/1', 'topology': 'geometric', 'radius': 0.25, 'latency': 'constant:0ms', 'loss': 0.0, 'medium': 'broadcast', 'period': '10ms', 'jitter': 0.1, 'sync': False}
         """  # noqa: E501
         data: dict[str, Any] = {"format": NETWORK_FORMAT, "topology": self.topology}
+        if self.profile is not None:
+            data["profile"] = self.profile
         for key in _TOPOLOGY_PARAMS[self.topology]:
             data[key] = getattr(self, key)
         if self.edges is not None:
@@ -1187,7 +1252,7 @@ def _names_a_file(stripped: str, tokens: Sequence[str]) -> bool:
     any name, spaces included) that does not start as a spec does, or one word ending
     in ``.json`` (then a missing file is said to be missing)."""
     head = tokens[0]
-    if head in _TOPOLOGY_PARAMS or head.startswith("file="):
+    if head in _TOPOLOGY_PARAMS or head in _profile_names() or head.startswith("file="):
         return False
     if os.path.lexists(stripped):
         return True
@@ -1204,6 +1269,30 @@ def _join_file_path(stripped: str, tokens: Sequence[str]) -> list[str]:
         if os.path.lexists(stripped[len("file=") : ends[count - 1]]):
             return [stripped[: ends[count - 1]], *tokens[count:]]
     return list(tokens)
+
+
+def _profile_names() -> tuple[str, ...]:
+    from heuristics.profiles import PROFILES
+
+    return tuple(PROFILES)
+
+
+@functools.cache
+def _profile_spec(name: str) -> NetworkSpec:
+    from heuristics.profiles import PROFILES
+
+    return NetworkSpec._parse_tokens(PROFILES[name].spec.split())
+
+
+def _profile_base(name: str) -> dict[str, Any]:
+    """The fields the profile ``name`` stands for (a fresh dict): topology and physics."""
+    spec = _profile_spec(name)
+    fields = ("topology", "latency", "loss", "medium", "period_ns", "jitter", "sync")
+    return {key: getattr(spec, key) for key in fields}
+
+
+def _profile_texts(name: str) -> dict[str, str]:
+    return _profile_spec(name)._general_texts()
 
 
 def _only_for(key: str) -> str:

@@ -39,6 +39,7 @@ from heuristics.transport.driver import (
     QUIET_FACTOR,
     NetworkReport,
     network_spec,
+    quiet_factor_for,
     run_limits,
 )
 from heuristics.transport.simulator import Faults
@@ -49,6 +50,7 @@ __all__ = [
     "QUIET_FACTOR",
     "NetworkReport",
     "network_spec",
+    "quiet_factor_for",
     "run_limits",
     "simulate",
 ]
@@ -61,7 +63,7 @@ def simulate(
     *,
     seed: SeedLike = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    quiet_factor: int = QUIET_FACTOR,
+    quiet_factor: int | None = None,
     reward: str = "paper",
     faults: Faults | None = None,
     options: Mapping[str, Any] | None = None,
@@ -83,8 +85,10 @@ def simulate(
     time_limit : float, default 3600
         Simulated seconds after which the run is cut, at most :data:`MAX_TIME_LIMIT`
         (8796).
-    quiet_factor : int, default 2
-        ``K``: robots stop after ``K * d_G`` ticks without a change.
+    quiet_factor : int, optional
+        ``K``: robots stop after ``K * d_G`` ticks without a change.  Default: the
+        halting rule of the network's profile (``seed``: :mod:`heuristics.profiles`),
+        else :data:`QUIET_FACTOR` (2).
     reward : {"paper", "utility"}
         GRAPE-S's reward weighting; ``"grape-s-select"`` has its own reward and takes only
         the default.

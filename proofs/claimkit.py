@@ -38,9 +38,20 @@ Scaling claims (:func:`scaling_claim`)
     *holds* when the fitted interval lies at or below ``exponent + EXPONENT_TOLERANCE``,
     *fails* when it lies above, and is *inconclusive* otherwise.
 
+Statistical claims
+    A claim about a statistic (a median, an aggregate hypothesis) is checked on a sample:
+    :func:`median_estimate` gives the median with its distribution-free confidence
+    interval and the sample size, :func:`interval_verdict` turns it into *holds* (the
+    interval inside the bound), *fails* (wholly outside) or *inconclusive at this
+    budget*; :func:`paired_comparison` tallies paired values and tests them (Wilcoxon
+    signed-rank, one-sided both ways).  Such a verdict never has a counterexample; a
+    decision needs the whole interval on one side, so a small budget (``--quick``) says
+    *inconclusive* where a larger one decides, rather than the opposite verdict.
+
 Any other check is an object with a ``check(claim, n_missions, seed)`` method returning
 ``(VerdictKind, missions checked, Counterexample or None, note)`` (:class:`ClaimCheck`),
-given to :class:`Claim` directly.
+given to :class:`Claim` directly.  A distributed claim names its network
+(:attr:`Claim.network`); :attr:`Verdict.scope_text` says the scope with it.
 
 Algorithms are run through :meth:`Claim.run`: the public registry
 (``heuristics.get_algorithm``) unless :meth:`Claim.with_algorithm` substituted another
@@ -120,7 +131,9 @@ from proofs.stability import nash_violations
 __all__ = [
     "ACHIEVABLE_FAMILY",
     "ALL_COMPOSITIONS",
+    "ALPHA",
     "ANY_FAMILY",
+    "CONFIDENCE",
     "EASY_COMPOSITIONS",
     "EXPONENT_TOLERANCE",
     "HARD_COMPOSITIONS",
@@ -135,7 +148,9 @@ __all__ = [
     "Counterexample",
     "Evaluation",
     "Evaluator",
+    "MedianEstimate",
     "MissionStrategy",
+    "PairedComparison",
     "PropertyCheck",
     "Runner",
     "ScalingCheck",
@@ -146,17 +161,23 @@ __all__ = [
     "achievable",
     "achievable_small_scope",
     "bound_runner",
+    "budget_note",
     "capped_nash_claim",
     "capped_nash_stable",
     "exponent_verdict",
     "format_number",
     "generated_missions",
     "grid_cells",
+    "interval_verdict",
+    "median_estimate",
+    "paired_comparison",
     "property_claim",
     "scaling_claim",
+    "scope_text",
     "small_scope",
     "structural_missions",
     "tally_summary",
+    "verdict_words",
     "worst_verdict",
 ]
 
@@ -220,6 +241,22 @@ class Scope(enum.Enum):
     SIMULATOR = "on cfopt's simulator under a stated network"
 
 
+def scope_text(scope: Scope | None, network: str | None = None) -> str:
+    """A claim's scope in words, naming its network when it has one.
+
+    >>> scope_text(Scope.SIMULATOR, "seed")
+    "on cfopt's simulator under network `seed`"
+    >>> scope_text(Scope.GENERALISATION)
+    "a generalisation to the paper's family at any size"
+    """
+    if network is None:
+        return "-" if scope is None else scope.value
+    simulator = f"on cfopt's simulator under network `{network}`"
+    if scope is None or scope is Scope.SIMULATOR:
+        return simulator
+    return f"{scope.value}, {simulator}"
+
+
 @dataclass(frozen=True, eq=False)
 class Counterexample:
     """A mission on which a claim fails, and the partition the algorithm produced there.
@@ -261,7 +298,8 @@ class Verdict:
     """The outcome of :meth:`Claim.check` (an entry of ``cfopt audit --json``'s ``claims``).
 
     ``scope`` is the checked claim's :class:`Scope` (``None`` for a verdict stored before
-    claims had one).
+    claims had one) and ``network`` the network its distributed runs used (``None``: no
+    simulator); :attr:`scope_text` says both in words.
     """
 
     claim_id: str
@@ -272,6 +310,17 @@ class Verdict:
     seconds: float
     note: str = ""
     scope: Scope | None = None
+    network: str | None = None
+
+    @property
+    def scope_text(self) -> str:
+        """The scope in words, with the network (``"-"`` for a verdict without a scope).
+
+        >>> Verdict("D4", "s", VerdictKind.FAILS, 1, None, 0.0, scope=Scope.PAPER_SIZES,
+        ...         network="seed").scope_text
+        "at the paper's sizes, on cfopt's simulator under network `seed`"
+        """
+        return scope_text(self.scope, self.network)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Verdict:
@@ -299,11 +348,13 @@ class Verdict:
             seconds=float(data["seconds"]),
             note=data.get("note", ""),
             scope=None if scope is None else Scope(scope),
+            network=data.get("network"),
         )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready; ``verdict`` is ``"holds"``, ``"fails"`` or ``"inconclusive"``,
-        ``scope`` the :class:`Scope`'s text (or ``None``)."""
+        ``scope`` the :class:`Scope`'s text (or ``None``), ``network`` the claim's network
+        (or ``None``) and ``scope_text`` the two in words."""
         return {
             "id": self.claim_id,
             "statement": self.statement,
@@ -315,6 +366,8 @@ class Verdict:
             "note": self.note,
             "seconds": self.seconds,
             "scope": None if self.scope is None else self.scope.value,
+            "network": self.network,
+            "scope_text": self.scope_text,
         }
 
 
@@ -377,6 +430,9 @@ class Claim:
         What the check ranges over.
     overrides : tuple of (str, callable)
         Replacement implementations (see :meth:`with_algorithm`).
+    network : str, optional
+        The network a distributed claim's runs use (a ``--network`` spec or profile name,
+        e.g. ``seed``); the verdict table shows it with the scope.
     """
 
     id: str
@@ -386,6 +442,7 @@ class Claim:
     method: ClaimCheck = field(repr=False, compare=False)
     scope: Scope
     overrides: tuple[tuple[str, Runner], ...] = field(default=(), compare=False)
+    network: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.id, str) or not _ID.match(self.id):
@@ -411,6 +468,8 @@ class Claim:
             )
         if not isinstance(self.scope, Scope):
             raise MissionError(f"Claim.scope: must be a proofs.claimkit.Scope, got {self.scope!r}")
+        if self.network is not None and not (isinstance(self.network, str) and self.network):
+            raise MissionError(f"Claim.network: must be text or None, got {self.network!r}")
 
     def check(self, n_missions: int, seed: int = 0) -> Verdict:
         """Check the claim on ``n_missions`` seeded grid missions plus a hypothesis search.
@@ -441,6 +500,7 @@ class Claim:
             seconds=time.perf_counter() - started,
             note=note,
             scope=self.scope,
+            network=self.network,
         )
 
     def with_algorithm(self, name: str, function: Runner) -> Claim:
@@ -511,8 +571,9 @@ class PropertyCheck:
         the claim on that mission (its counterexample names the exception).
     cells : sequence of cfopt.GridCell
         The seeded grid missions: ``n_missions`` of them, cycling through the cells.
-    strategy : callable
-        A hypothesis strategy factory (e.g. :func:`structural_missions`).
+    strategy : callable or None
+        A hypothesis strategy factory (e.g. :func:`structural_missions`); ``None``: no
+        search (a claim about the grid missions only, e.g. at the paper's sizes).
     summary : callable, optional
         ``summary(tallies, checked) -> str`` for the note (e.g. :func:`tally_summary`).
     exhaustive : callable, optional
@@ -530,7 +591,7 @@ class PropertyCheck:
         self,
         evaluate: Evaluator,
         cells: Sequence[GridCell],
-        strategy: MissionStrategy,
+        strategy: MissionStrategy | None,
         summary: Callable[[Counter[str], int], str] | None = None,
         exhaustive: Callable[[], Iterable[Mission]] | None = None,
         sweep: Sequence[tuple[int, int]] = (),
@@ -579,25 +640,30 @@ class PropertyCheck:
                         yield generate_mission(n, p, S, k, seed=seed * 100_000 + i)
 
     def check(self, claim: Claim, n_missions: int, seed: int) -> CheckResult:
-        """Grid, sweep, search, then the exhaustive fallback; the smallest failure found."""
+        """Grid, sweep, search, then the exhaustive fallback; the smallest failure found.
+
+        The note is made from the same evaluations as the verdict: the tallies count every
+        mission checked (the exhaustive ones and the shrunk counterexample included), and
+        the counterexample's own labels are named with where it was found.
+        """
         tallies: Counter[str] = Counter()
-        found: list[Counterexample] = []
-        checked = 0
+        found: list[tuple[Evaluation, str]] = []
+        checked = grid_failed = 0
         for mission in self.grid(n_missions, seed):
             out = self._safe(claim, mission)
             checked += 1
             tallies.update(out.tallies)
             if out.failure is not None:
-                tallies["failed (grid)"] += 1
+                grid_failed += 1
                 if not found:
-                    found.append(out.failure)
+                    found.append((out, "a grid mission"))
         swept = 0
         for mission in self.family_sweep(n_missions, seed):
             out = self._safe(claim, mission)
             swept += 1
             tallies.update(out.tallies)
             if out.failure is not None:  # smallest first: stop at the first failure
-                found.append(out.failure)
+                found.append((out, "the seed-family sweep"))
                 break
         checked += swept
         searched, shrunk = self._search(claim, n_missions * SEARCH_FACTOR, seed, tallies)
@@ -606,50 +672,56 @@ class PropertyCheck:
         if self.sweep:
             stop = " (stopped at the first failure)" if swept and found else ""
             notes.append(f"seed-family sweep n = 3..12: {swept} missions{stop}")
-        if self.exhaustive is not None and shrunk is None:
-            scoped, shrunk = self._exhaust(claim, self.exhaustive())
+        if shrunk is not None:  # a mission of its own: checked and tallied too
+            checked += 1
+            tallies.update(shrunk.tallies)
+            found.append((shrunk, "the hypothesis search (shrunk)"))
+        elif self.exhaustive is not None:
+            scoped, exhausted = self._exhaust(claim, self.exhaustive(), tallies)
             checked += scoped
             notes.append(f"small-scope search: {scoped} missions")
-        if shrunk is not None:
-            found.append(shrunk)
+            if exhausted is not None:
+                found.append((exhausted, "the small-scope search"))
+        example = None
         if found:
-            example = min(found, key=lambda c: (c.size, c.mission.requirements.sum()))
-            if shrunk is None:
-                notes.append(
-                    "counterexample: a grid or sweep mission (the hypothesis search found "
-                    "none to shrink)"
-                )
-            kind = VerdictKind.FAILS
-        else:
-            example, kind = None, VerdictKind.HOLDS
+            out, source = min(found, key=lambda f: _smallness(f[0].failure))
+            example = out.failure
+            notes.append(_counterexample_note(out, source))
         if self.summary is not None:
             notes.append(self.summary(tallies, checked))
-        notes.append(self._grid_note(n_missions, searched))
+        notes.append(self._grid_note(n_missions, searched, grid_failed))
+        kind = VerdictKind.HOLDS if example is None else VerdictKind.FAILS
         return kind, checked, example, "; ".join(n for n in notes if n)
 
-    def _grid_note(self, n_missions: int, searched: int) -> str:
+    def _grid_note(self, n_missions: int, searched: int, failed: int) -> str:
+        search = f"{searched} searched" if self.strategy is not None else "no search"
         if not self.cells:
-            return f"{searched} searched"
+            return search
         robots = ", ".join(str(r) for r in sorted({c.robots for c in self.cells}))
         cells = f"{len(self.cells)} cells, n={robots}"
-        return f"{n_missions} grid missions ({cells}) + {searched} searched"
+        return f"{n_missions} grid missions ({cells}) + {search}; failing grid missions: {failed}"
 
     def _exhaust(
-        self, claim: Claim, missions: Iterable[Mission]
-    ) -> tuple[int, Counterexample | None]:
-        """The exhaustive fallback: (missions checked, the first failure, smallest first)."""
+        self, claim: Claim, missions: Iterable[Mission], tallies: Counter[str]
+    ) -> tuple[int, Evaluation | None]:
+        """The exhaustive fallback: (missions checked, the first failure, smallest first);
+        the missions' labels are tallied."""
         scoped = 0
         for mission in missions:
             out = self._safe(claim, mission)
             scoped += 1
+            tallies.update(out.tallies)
             if out.failure is not None:
-                return scoped, out.failure  # smallest first: minimal in the scope
+                return scoped, out  # smallest first: minimal in the scope
         return scoped, None
 
     def _search(
         self, claim: Claim, max_examples: int, seed: int, tallies: Counter[str]
-    ) -> tuple[int, Counterexample | None]:
-        """``hypothesis.find`` the minimal failing mission; returns (missions drawn, it)."""
+    ) -> tuple[int, Evaluation | None]:
+        """``hypothesis.find`` the minimal failing mission; returns (missions drawn, its
+        evaluation).  No strategy: no search."""
+        if self.strategy is None:
+            return 0, None
         from hypothesis import HealthCheck, Phase, find, settings, target
         from hypothesis.errors import NoSuchExample, Unsatisfiable
 
@@ -681,7 +753,21 @@ class PropertyCheck:
         except (NoSuchExample, Unsatisfiable):
             return state["drawn"], None
         out = self._safe(claim, mission)
-        return state["drawn"], out.failure
+        return state["drawn"], out if out.failure is not None else None
+
+
+def _smallness(example: Counterexample | None) -> tuple[Any, ...]:
+    assert example is not None
+    return (example.size, int(example.mission.requirements.sum()))
+
+
+def _counterexample_note(out: Evaluation, source: str) -> str:
+    """Where the counterexample was found and its own labels (the same evaluation)."""
+    robots, tasks, services = out.failure.size  # type: ignore[union-attr]
+    labels = ", ".join(dict.fromkeys(out.tallies))
+    return f"counterexample ({robots} robots, {tasks} tasks, {services} services) from {source}" + (
+        f": {labels}" if labels else ""
+    )
 
 
 def capped_nash_stable(algorithm: str, subject: str) -> Evaluator:
@@ -718,11 +804,12 @@ def property_claim(
     evaluate: Evaluator,
     *,
     scope: Scope,
-    strategy: MissionStrategy,
+    strategy: MissionStrategy | None,
     cells: Sequence[GridCell] = (),
     summary: Callable[[Counter[str], int], str] | None = None,
     exhaustive: Callable[[], Iterable[Mission]] | None = None,
     sweep: Sequence[tuple[int, int]] = (),
+    network: str | None = None,
 ) -> Claim:
     """A claim about single runs, checked by a :class:`PropertyCheck`.
 
@@ -737,6 +824,8 @@ def property_claim(
         What the check ranges over.
     strategy, cells, summary, exhaustive, sweep
         As in :class:`PropertyCheck`.
+    network : str, optional
+        The network of a distributed claim (:attr:`Claim.network`).
 
     Returns
     -------
@@ -752,7 +841,7 @@ def property_claim(
             + ", 10 and 50 % tasks, smallest first"
         )
     check = PropertyCheck(evaluate, cells, strategy, summary, exhaustive, sweep)
-    return Claim(id, statement, family, algorithms, check, scope)
+    return Claim(id, statement, family, algorithms, check, scope, network=network)
 
 
 def capped_nash_claim(
@@ -914,6 +1003,197 @@ def tally_summary(*labels: str) -> Callable[[Counter[str], int], str]:
         return ", ".join(f"{label}: {tallies[label]} of {checked}" for label in labels)
 
     return summary
+
+
+# --------------------------------------------------------- statistical claims
+#: Confidence of the intervals and significance level of the tests of statistical claims.
+CONFIDENCE = 0.95
+ALPHA = 0.05
+
+
+def verdict_words(kind: VerdictKind) -> str:
+    """A verdict in words: ``inconclusive`` reads "inconclusive at this budget".
+
+    >>> verdict_words(VerdictKind.INCONCLUSIVE), verdict_words(VerdictKind.HOLDS)
+    ('inconclusive at this budget', 'holds')
+    """
+    return "inconclusive at this budget" if kind is VerdictKind.INCONCLUSIVE else kind.value
+
+
+def budget_note(kind: VerdictKind, note: str) -> str:
+    """``note``, led by "inconclusive at this budget: " when ``kind`` is inconclusive."""
+    return f"{verdict_words(kind)}: {note}" if kind is VerdictKind.INCONCLUSIVE else note
+
+
+@dataclass(frozen=True)
+class MedianEstimate:
+    """A sample's median with its distribution-free confidence interval (frozen).
+
+    Attributes
+    ----------
+    median : float
+    low, high : float or None
+        The interval ``[x(k), x(n-k+1)]`` of order statistics with the largest ``k``
+        whose coverage is at least the confidence asked for (``None`` when even
+        ``[min, max]`` falls short: at 95 %, fewer than 6 values).
+    coverage : float
+        The interval's exact coverage (binomial, for any continuous distribution);
+        0 without an interval.
+    n : int
+        Sample size.
+    """
+
+    median: float
+    low: float | None
+    high: float | None
+    coverage: float
+    n: int
+
+    def describe(self, unit: str = "", digits: int = 2) -> str:
+        """``"median 100.00 % (95.7 % CI [99.20, 100.00] %, n = 25)"``; without an interval
+        ``"median 97.08 % (n = 5: too few for a 95 % interval)"``.
+
+        >>> median_estimate([99.0] + [100.0] * 7).describe("%")
+        'median 100.00 % (99.2 % CI [99.00, 100.00] %, n = 8)'
+        """
+        unit = f" {unit}" if unit else ""
+        median = f"median {self.median:.{digits}f}{unit}"
+        if self.low is None or self.high is None:
+            return f"{median} (n = {self.n}: too few for a {CONFIDENCE * 100:g} % interval)"
+        ci = f"[{self.low:.{digits}f}, {self.high:.{digits}f}]{unit}"
+        return f"{median} ({self.coverage * 100:.1f} % CI {ci}, n = {self.n})"
+
+
+def median_estimate(values: Sequence[float], confidence: float = CONFIDENCE) -> MedianEstimate:
+    """The median of ``values`` and its exact order-statistic confidence interval.
+
+    >>> e = median_estimate([99.0, 99.5, 100, 100, 100, 100, 100, 100])
+    >>> e.median, e.low, e.high, round(e.coverage, 3)
+    (100.0, 99.0, 100.0, 0.992)
+    >>> median_estimate([1.0, 2.0, 3.0]).low is None
+    True
+    """
+    from scipy.stats import binom
+
+    xs = sorted(float(v) for v in values)
+    n = len(xs)
+    if n == 0:
+        raise MissionError("values: a median needs at least one value")
+    best = None
+    for k in range(1, n // 2 + 1):
+        coverage = 1.0 - 2.0 * float(binom.cdf(k - 1, n, 0.5))
+        if coverage < confidence:
+            break
+        best = (k, coverage)
+    median = float(np.median(xs))
+    if best is None:
+        return MedianEstimate(median, None, None, 0.0, n)
+    k, coverage = best
+    return MedianEstimate(median, xs[k - 1], xs[n - k], coverage, n)
+
+
+def interval_verdict(
+    estimate: MedianEstimate, lower: float | None = None, upper: float | None = None
+) -> VerdictKind:
+    """``holds`` when the interval lies inside ``[lower, upper]``, ``fails`` when it lies
+    wholly outside, ``inconclusive`` otherwise -- also without an interval (too few
+    values: inconclusive at this budget).  A decision needs the whole interval on one
+    side: a wider interval (a smaller sample) says ``inconclusive`` sooner than the
+    opposite verdict.
+
+    >>> interval_verdict(median_estimate([99.5] * 8), lower=99).value
+    'holds'
+    >>> interval_verdict(median_estimate([97.0] * 5), lower=99).value
+    'inconclusive'
+    """
+    low, high = estimate.low, estimate.high
+    if low is None or high is None:
+        return VerdictKind.INCONCLUSIVE
+    inside = (lower is None or low >= lower) and (upper is None or high <= upper)
+    if inside:
+        return VerdictKind.HOLDS
+    outside = (lower is not None and high < lower) or (upper is not None and low > upper)
+    return VerdictKind.FAILS if outside else VerdictKind.INCONCLUSIVE
+
+
+@dataclass(frozen=True)
+class PairedComparison:
+    """Paired values ``a`` against ``b`` (frozen): the tally and the Wilcoxon signed-rank
+    test of the nonzero differences, in both one-sided directions.
+
+    Attributes
+    ----------
+    higher, equal, lower : int
+        Pairs with ``a > b``, ``a == b``, ``a < b``.
+    statistic : float
+        The signed-rank statistic (the sum of the ranks of the positive differences);
+        0 without nonzero differences.
+    p_greater, p_less : float
+        One-sided p-values for "``a`` tends to be higher" and "lower" (1 without nonzero
+        differences).
+    """
+
+    higher: int
+    equal: int
+    lower: int
+    statistic: float
+    p_greater: float
+    p_less: float
+
+    @property
+    def n(self) -> int:
+        """The number of pairs."""
+        return self.higher + self.equal + self.lower
+
+    def verdict(self, alpha: float = ALPHA) -> VerdictKind:
+        """``holds`` when ``a`` is significantly higher, ``fails`` when significantly
+        lower, ``inconclusive`` otherwise (at this budget)."""
+        if self.p_greater < alpha:
+            return VerdictKind.HOLDS
+        if self.p_less < alpha:
+            return VerdictKind.FAILS
+        return VerdictKind.INCONCLUSIVE
+
+    def describe(self, a: str = "a", b: str = "b") -> str:
+        """The tally, the statistic, both p-values and the direction, in words."""
+        direction = (
+            f"{a} higher"
+            if self.p_greater < ALPHA
+            else f"{a} lower"
+            if self.p_less < ALPHA
+            else "no significant direction"
+        )
+        return (
+            f"{a} vs {b} on {self.n} paired missions: higher {self.higher}, equal "
+            f"{self.equal}, lower {self.lower}; Wilcoxon signed-rank W+ = {self.statistic:g}, "
+            f"p = {self.p_greater:.3g} ({a} higher), p = {self.p_less:.3g} ({a} lower): "
+            f"{direction} (alpha {ALPHA:g})"
+        )
+
+
+def paired_comparison(a: Sequence[float], b: Sequence[float]) -> PairedComparison:
+    """Tally ``a`` against ``b`` pair by pair and test the nonzero differences with the
+    Wilcoxon signed-rank test (scipy), one-sided both ways.
+
+    >>> c = paired_comparison([1, 2, 3, 4, 5, 6, 7], [0, 1, 2, 3, 4, 5, 7])
+    >>> (c.higher, c.equal, c.lower), c.verdict().value
+    ((6, 1, 0), 'holds')
+    """
+    from scipy.stats import wilcoxon
+
+    if len(a) != len(b):
+        raise MissionError(f"a, b: paired samples must have one length, got {len(a)}, {len(b)}")
+    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    nonzero = d[d != 0]
+    higher, lower = int((d > 0).sum()), int((d < 0).sum())
+    equal = len(d) - higher - lower
+    if nonzero.size == 0:
+        return PairedComparison(higher, equal, lower, 0.0, 1.0, 1.0)
+    greater = wilcoxon(nonzero, alternative="greater")
+    less = wilcoxon(nonzero, alternative="less")
+    return PairedComparison(
+        higher, equal, lower, float(greater.statistic), float(greater.pvalue), float(less.pvalue)
+    )
 
 
 # ------------------------------------------------------------- scaling claims

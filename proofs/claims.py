@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from cfopt import MissionError
-from proofs.claimkit import Claim, Verdict
+from proofs.claimkit import Claim, Scope, Verdict
 from proofs.claims_cfopt import cfopt_claims
 from proofs.claims_distributed import distributed_claims
 from proofs.claims_generic import algorithm_claims as generic_claims
@@ -59,6 +59,7 @@ __all__ = [
     "format_verdict_table",
     "register_claim",
     "resolve_claims",
+    "short_scope",
     "write_counterexamples",
 ]
 
@@ -350,19 +351,54 @@ def write_counterexamples(
     return [path for path, _ in plan]
 
 
-def format_verdict_table(verdicts: Sequence[Verdict], *, width: int = 60) -> str:
-    """A plain-text table: id, statement (cut to ``width``), verdict, missions, size.
+def short_scope(verdict: Verdict) -> str:
+    """A verdict's scope in a few words, for terminal tables (:attr:`Verdict.scope_text`
+    says it in full): ``paper's sizes``, ``any size`` or ``simulator``, then the network
+    (``sim: default`` for cfopt's default network, a profile by its name).
+
+    >>> from proofs.claimkit import Scope, VerdictKind
+    >>> short_scope(Verdict("D4", "s", VerdictKind.FAILS, 1, None, 0.0,
+    ...                     scope=Scope.PAPER_SIZES, network="seed"))
+    "paper's sizes, sim: seed"
+    """
+    from cfopt.generate import SEED_NETWORK
+
+    words = {
+        Scope.PAPER_SIZES: "paper's sizes",
+        Scope.GENERALISATION: "any size",
+        Scope.SIMULATOR: "simulator",
+    }
+    base = "-" if verdict.scope is None else words[verdict.scope]
+    network = verdict.network
+    if network is None:
+        return base
+    name = "default" if network == SEED_NETWORK else network.split()[0]
+    if verdict.scope is Scope.SIMULATOR:
+        return f"simulator: {name}"
+    return f"{base}, sim: {name}"
+
+
+def format_verdict_table(
+    verdicts: Sequence[Verdict], *, width: int | None = None, columns: int = 120
+) -> str:
+    """A plain-text table: id, verdict, scope (:func:`short_scope`), missions, size and
+    the statement, cut to ``width`` characters (default: what keeps the rows within
+    ``columns``, at least 24).
 
     The counterexample size is ``robots/tasks/services``, ``-`` when there is none.
     """
-    header = ("id", "statement", "verdict", "missions", "counterexample")
-    body = []
+    header = ("id", "verdict", "scope", "missions", "counterexample", "statement")
+    rows = []
     for v in verdicts:
-        text = " ".join(v.statement.split())
-        if len(text) > width:
-            text = text[: width - 3] + "..."
         size = "-" if v.counterexample is None else "/".join(map(str, v.counterexample.size))
-        body.append((v.claim_id, text, v.verdict.value, str(v.instances_checked), size))
+        rows.append((v.claim_id, v.verdict.value, short_scope(v), str(v.instances_checked), size))
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
+    if width is None:
+        width = max(24, columns - sum(w + 2 for w in widths))
+    body = []
+    for v, row in zip(verdicts, rows, strict=True):
+        text = " ".join(v.statement.split())
+        body.append((*row, text if len(text) <= width else text[: width - 3] + "..."))
     widths = [max(len(row[i]) for row in [header, *body]) for i in range(len(header))]
     return "\n".join(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()

@@ -73,6 +73,7 @@ __all__ = [
     "assemble_run",
     "network_spec",
     "pack_key",
+    "quiet_factor_for",
     "require_protocol",
     "run_limits",
     "seed_entropy",
@@ -188,6 +189,20 @@ def network_spec(network: Any) -> NetworkSpec:
         return NetworkSpec.parse(network)
     except MissionError as exc:
         raise MissionError(f"network: {exc}", cli=exc.cli_message) from None
+
+
+def quiet_factor_for(spec: NetworkSpec, n_robots: int, quiet_factor: Any = None) -> Any:
+    """The quiet factor of a run of ``n_robots`` robots on ``spec``: ``quiet_factor`` when
+    given, else the halting rule of the spec's profile (:mod:`heuristics.profiles`), else
+    :data:`QUIET_FACTOR`.
+
+    >>> quiet_factor_for(NetworkSpec.parse("seed"), 100), quiet_factor_for(NetworkSpec(), 100)
+    (334, 2)
+    """
+    if quiet_factor is not None:
+        return quiet_factor
+    profiled = spec.quiet_factor(n_robots)
+    return QUIET_FACTOR if profiled is None else profiled
 
 
 def run_limits(time_limit: Any, quiet_factor: Any) -> tuple[int, int]:

@@ -104,13 +104,13 @@ from heuristics.transport.driver import (
     DEFAULT_TIME_LIMIT,
     HOP,
     NEVER,
-    QUIET_FACTOR,
     TICK,
     AgentEnd,
     Driver,
     EventRouting,
     assemble_run,
     network_spec,
+    quiet_factor_for,
     require_protocol,
     run_limits,
     seed_entropy,
@@ -195,7 +195,7 @@ def run_ranks(
     *,
     seed: Any = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    quiet_factor: int = QUIET_FACTOR,
+    quiet_factor: int | None = None,
     reward: str = "paper",
     comm: Any = None,
 ) -> Run | None:
@@ -210,6 +210,7 @@ def run_ranks(
     require_protocol(protocol)
     spec = network_spec(network)
     check_ranks(mission.n_robots, comm.Get_size())
+    quiet_factor = quiet_factor_for(spec, mission.n_robots, quiet_factor)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
     entropy = comm.bcast(
         np.random.SeedSequence(seed_entropy(seed)).entropy if comm.Get_rank() == 0 else None

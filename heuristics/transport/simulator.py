@@ -50,11 +50,11 @@ from heuristics.network import Clocks, Links, NetworkSpec
 from heuristics.transport.driver import (
     COUNTERS,
     DEFAULT_TIME_LIMIT,
-    QUIET_FACTOR,
     TICK,
     EventRouting,
     assemble_run,
     network_spec,
+    quiet_factor_for,
     require_protocol,
     run_limits,
     seed_entropy,
@@ -76,7 +76,7 @@ def simulate(
     *,
     seed: SeedLike = None,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    quiet_factor: int = QUIET_FACTOR,
+    quiet_factor: int | None = None,
     reward: str = "paper",
     faults: Faults | None = None,
 ) -> Run:
@@ -94,8 +94,10 @@ def simulate(
     time_limit : float, default 3600
         Simulated seconds after which the run is cut, at most
         :data:`~heuristics.transport.driver.MAX_TIME_LIMIT` (8796).
-    quiet_factor : int, default 2
-        ``K``: the context's ``quiet_limit`` is ``K * d_G`` ticks.
+    quiet_factor : int, optional
+        ``K``: the context's ``quiet_limit`` is ``K * d_G`` ticks.  Default: the halting
+        rule of the network's profile (``seed``: :mod:`heuristics.profiles`), else
+        :data:`~heuristics.transport.driver.QUIET_FACTOR` (2).
     reward : str, default "paper"
         The reward weighting handed to the protocol (:class:`heuristics.agents.RunContext`).
     faults : callable, optional
@@ -144,6 +146,7 @@ def simulate(
     require_protocol(protocol)
     spec = network_spec(network)
     require_seed("seed", seed)
+    quiet_factor = quiet_factor_for(spec, mission.n_robots, quiet_factor)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
     if faults is not None and not callable(faults):
         raise MissionTypeError(f"faults: must be callable or None, got {shown(faults)}")

@@ -19,7 +19,7 @@ import proofs.claims
 from cfopt import Assignment, GridCell, generate_mission
 from cfopt.cli import main
 from cfopt.experiments import ResultStore, code_version
-from proofs.claimkit import Counterexample, Verdict, VerdictKind
+from proofs.claimkit import Counterexample, Scope, Verdict, VerdictKind
 
 TINY = (GridCell(20, 10, 5, 2), GridCell(20, 50, 5, 1, load=1.25))
 
@@ -40,8 +40,11 @@ def _fake_audit_claims(*, budget: int = 25, seed: int = 0, ids=None) -> list[Ver
             raise RuntimeError("the check itself crashed")
         else:
             out.append(
-                Verdict(claim_id, "a claim that holds", VerdictKind.HOLDS, budget, None, 0.01)
-            )
+                Verdict(
+                    claim_id, "a claim that holds", VerdictKind.HOLDS, budget, None, 0.01,
+                    scope=Scope.PAPER_SIZES, network="seed",
+                )
+            )  # fmt: skip
     return out
 
 
@@ -71,6 +74,15 @@ def test_quick_audit_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFix
     assert sorted(p.name for p in cx.iterdir()) == ["F1.assignment.json", "F1.mission.json"]
     markdown = (folder / "report.md").read_text(encoding="utf-8")
     assert "## Claims of the seed paper" in markdown and "| F1 | fails |" in markdown
+    # the scope beside the verdict, in the terminal table, the report and claims.csv
+    assert "paper's sizes, sim: seed" in out
+    assert "| H1 | holds | at the paper's sizes, on cfopt's simulator under network `seed` |" in (
+        markdown
+    )
+    assert (folder / "claims.csv").read_text().splitlines()[0].startswith("id,verdict,scope,")
+    # a claim ran under the seed profile: the report derives the profile
+    assert "## The seed-calibrated network profile" in markdown
+    assert "262 / 80,000 = 3.3 ms" in markdown and "n^3 / 3,000" in markdown
     # the replay command of the report works on the written files
     assert main(["check", str(cx / "F1.mission.json"), str(cx / "F1.assignment.json")]) == 0
 

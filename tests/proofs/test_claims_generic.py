@@ -349,8 +349,8 @@ def _rows(table: str) -> dict[str, list[str]]:
     for line in table.splitlines()[1:]:
         if line.startswith("counterexample:"):
             break
-        cells = re.split(r"\s{2,}", line.strip())
-        rows[cells[0]] = [cells[2], cells[3], cells[4]]
+        cells = re.split(r"\s{2,}", line.strip())  # id, verdict, scope, missions, size, ...
+        rows[cells[0]] = [cells[1], cells[3], cells[4]]
     return rows
 
 
