@@ -335,7 +335,11 @@ class _Claims:
         self.todo = [n for n in range(len(self.ids)) if n not in self.verdicts]
         reused = f", {self.reused} reused from {os.fspath(store)}" if self.reused else ""
         self.stage = progress.stage(
-            "claims", len(self.todo), "claim", f"{len(self.todo)} to check{reused}"
+            "claims",
+            len(self.todo),
+            "claim",
+            f"{len(self.todo)} to check{reused}",
+            reused=self.reused,
         )
 
     def jobs(self) -> list[tuple[Any, tuple[Any, ...], dict[str, Any]]]:
@@ -361,9 +365,22 @@ class _Claims:
             version = self.planned[number].version
             db.add_claim(self.ids[number], self.budget, self.seed, version, data)
 
+    @property
+    def checked(self) -> int:
+        """Verdicts this run computed (and stored), beside the :attr:`reused` ones."""
+        return len(self.verdicts) - self.reused
+
+    def kept(self) -> str:
+        """What an interrupted audit computed of the claims, counted as :meth:`close`
+        counts them (``"5 claim verdicts"``: the reused ones are not this run's)."""
+        return plural(self.checked, "claim verdict")
+
     def close(self) -> tuple[Any, ...]:
+        """End the stage, saying what was checked, reused, failed and left; the verdicts."""
         failed = f", {len(self.failures)} failed" if self.failures else ""
-        self.stage.close(f"{len(self.todo)} checked, {self.reused} reused{failed}")
+        left = len(self.todo) - self.checked - len(self.failures)
+        unchecked = f", {left} not checked (stopped)" if left else ""
+        self.stage.close(f"{self.checked} checked, {self.reused} reused{failed}{unchecked}")
         return tuple(self.verdicts[i] for i in sorted(self.verdicts))
 
 
@@ -477,7 +494,7 @@ def run_audit(
         except SweepInterrupted as exc:
             if own:
                 stop_executor(pool)
-            exc.extra = plural(len(checks.verdicts) - checks.reused, "claim verdict")
+            exc.extra = checks.kept()
             raise
         except KeyboardInterrupt as exc:  # claims only: no sweep to say what it kept
             if own:
@@ -487,7 +504,7 @@ def run_audit(
                 0,
                 0,
                 getattr(exc, "signal_name", "SIGINT"),
-                plural(len(checks.verdicts) - checks.reused, "claim verdict"),
+                checks.kept(),
             ) from None
         except BaseException:
             if own:

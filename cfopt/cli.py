@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from cfopt import __version__
-from cfopt.errors import MissionError, plural
+from cfopt.errors import MissionError, byte_count, plural
 
 if TYPE_CHECKING:
     from cfopt.mission import Mission
@@ -543,13 +543,14 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         m = load_mission(args.mission)
         check_output_free(args)
         given = _given_options(args)
+        _refuse_foreign(args, spec.name)
         if distributed:
             _refuse_options(given, spec.protocol_options, spec.name, distributed=True)
             result = _distributed(args, m, spec, given)
         else:
             _refuse_options(given, spec.options, spec.name, distributed=False)
             result = _centralized(args, m, spec, given)
-        return finish_run(args, m, result)
+        return finish_run(args, m, result, spec)
 
     return run
 
@@ -591,10 +592,19 @@ def _add_run_options(sub: argparse.ArgumentParser) -> None:
         help="with --backend mpi: MPI processes, robots split among them in blocks "
         "(default 2, at most one per robot)",
     )
+    sub.add_argument(
+        "--gap",
+        action="store_true",
+        help="also solve the mission exactly (cfopt solve's ILP, HiGHS; usually "
+        f"milliseconds, at most {_GAP_TIME_LIMIT:g} s) and print the percent of the optimum "
+        "the run earns; 'optimal' only when HiGHS proved it, otherwise the proven bound",
+    )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     _add_output_options(sub)
 
 
+#: Seconds ``cfopt run --gap`` gives the exact solve (a sweep's default).
+_GAP_TIME_LIMIT = 60.0
 #: The ``dest`` prefix of an algorithm's own flags.
 _OPTION_DEST = "option:"
 #: Options that ``cfopt run``'s own flags give (not flags of their own).
@@ -708,9 +718,15 @@ def _prepare_run(sub: argparse.ArgumentParser, argv: Sequence[str]) -> None:
     pre = Parser(prog=sub.prog, add_help=False)
     pre.add_argument("algorithm", nargs="?")
     _add_run_options(pre)
-    known, _ = pre.parse_known_args(argv)
+    _add_any_algorithm_flags(pre, ALGORITHMS.values())
+    known, unknown = pre.parse_known_args(argv)
     if known.algorithm is not None and not known.algorithm.startswith("-"):
-        _add_algorithm_options(sub, get_algorithm(known.algorithm))
+        try:
+            spec = get_algorithm(known.algorithm)
+        except MissionError as exc:
+            raise _misplaced_option(argv, known.algorithm, unknown) or exc from None
+        _add_algorithm_options(sub, spec)
+        _add_any_algorithm_flags(sub, ALGORITHMS.values())
     lines = ["algorithms (cfopt run ALGORITHM --help shows an algorithm's options):"]
     rows = [
         (name, spec.summary, spec.stability.value, spec.distributed)
@@ -726,21 +742,73 @@ def _prepare_run(sub: argparse.ArgumentParser, argv: Sequence[str]) -> None:
     sub.formatter_class = argparse.RawDescriptionHelpFormatter
 
 
-def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
-    """What ``cfopt run`` prints and writes once ``result`` (a heuristics.Run) is there:
-    the stability verdicts, the summary or ``--json``, and ``-o FILE``."""
-    import proofs
+#: The ``dest`` prefix of the flags of other algorithms than the one run (refused).
+_FOREIGN_DEST = "foreign:"
 
+
+def _add_any_algorithm_flags(parser: argparse.ArgumentParser, specs: Any) -> None:
+    """The flags of every registered algorithm, hidden, beside those ``parser`` has: so
+    that phase one of the parsing knows which take a value (``cfopt run --eps 1 sda
+    m.json`` finds ``sda``), and a flag of another algorithm is refused by its name."""
+    for spec in specs:
+        for option in (*spec.options, *spec.protocol_options):
+            if option.name in _RUN_FLAGS:
+                continue
+            extra: dict[str, Any] = (
+                {"action": argparse.BooleanOptionalAction} if option.type is bool else {}
+            )
+            with contextlib.suppress(argparse.ArgumentError):  # a flag it has already
+                parser.add_argument(
+                    option.flag,
+                    dest=_FOREIGN_DEST + option.name,
+                    default=None,
+                    help=argparse.SUPPRESS,
+                    **extra,
+                )
+
+
+def _refuse_foreign(args: argparse.Namespace, name: str) -> None:
+    """Refuse the flags of other algorithms given to a run of algorithm ``name``."""
+    given = [
+        _flag(("no_" if value is False else "") + key[len(_FOREIGN_DEST) :])
+        for key, value in vars(args).items()
+        if key.startswith(_FOREIGN_DEST) and value is not None
+    ]
+    if given:
+        raise MissionError(
+            f"{' and '.join(given)}: not an option of {name} (another algorithm's; "
+            f"'cfopt run {name} --help' lists its options)"
+        )
+
+
+def _misplaced_option(
+    argv: Sequence[str], taken: str, unknown: Sequence[str]
+) -> MissionError | None:
+    """The error for ``cfopt run --flag VALUE ALGORITHM ...`` with a flag that no
+    registered algorithm has (its value was taken for ALGORITHM); ``None`` otherwise."""
+    before = list(argv[: list(argv).index(taken)])
+    flags = [t for t in before if t.startswith("-") and t.split("=", 1)[0] in unknown]
+    if not flags or before[-1] not in flags:
+        return None
+    return MissionError(
+        f"{flags[-1]} {taken}: give ALGORITHM before its options ('cfopt run ALGORITHM "
+        f"MISSION {flags[-1]} ...'; {taken!r} was read as the algorithm)"
+    )
+
+
+def finish_run(args: argparse.Namespace, m: Mission, result: Any, spec: Any | None = None) -> int:
+    """What ``cfopt run`` prints and writes once ``result`` (a heuristics.Run) is there:
+    the stability verdicts (the seed's, and the one ``spec``, the algorithm's
+    :class:`heuristics.AlgorithmSpec`, declares), the optimal gap with ``--gap``, the
+    summary or ``--json``, and ``-o FILE``."""
     a = result.assignment
     out = result.to_dict(m)
     assignment = out.pop("assignment")
-    out["nash_stable"] = proofs.is_nash_stable(m, a)
-    # strict pairwise stability (the seed's Theorem 1) coincides with Nash stability
-    # under the seed's reward; the pareto notion is the informative one, so both
-    out["pairwise_stable"] = proofs.is_pairwise_stable(m, a)
-    out["pairwise_stable_pareto"] = proofs.is_pairwise_stable(m, a, mode="pareto")
-    out["nash_stable_capped"] = proofs.is_nash_stable(m, a, capped=True)
-    out["pairwise_stable_capped"] = proofs.is_pairwise_stable(m, a, capped=True)
+    out.update(seed_stability(m, a))
+    if spec is not None:
+        out["declared_stability"] = declared_stability(spec, m, a)
+    if getattr(args, "gap", False):
+        out["gap"] = optimal_gap(m, out["utility"])
     out["assignment"] = assignment
     assignment_json = a.to_json(m)
     _save_assignment(assignment_json, args)
@@ -749,16 +817,119 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any) -> int:
         return EXIT_OK
     summary = [
         f"{result.algorithm}: utility {out['utility']:g} of {out['total_utility']:g} "
-        f"({out['percent_utility']:.2f}%), {_counts_text(result)}, "
+        f"({out['percent_utility']:.2f}% of the total), {_counts_text(result)}, "
         f"{result.seconds:.3f} s{_status_note(result)}",
-        f"stability: Nash {_yes_no(out['nash_stable'])}, "
+        f"stability under the seed's reward: Nash {_yes_no(out['nash_stable'])}, "
         f"pairwise (strict) {_yes_no(out['pairwise_stable'])}, "
         f"pairwise (pareto) {_yes_no(out['pairwise_stable_pareto'])}",
     ]
+    if spec is not None:
+        summary.append(_declared_text(spec.name, out["declared_stability"]))
+    if "gap" in out:
+        summary.append(_gap_text(out["gap"]))
     if result.network is not None:
         summary += _network_summary(result.network)
     _print_result(summary, assignment_json, args)
     return EXIT_OK
+
+
+def seed_stability(m: Mission, a: Any) -> dict[str, bool]:
+    """The stability verdicts of ``cfopt run --json`` under the seed's reward."""
+    import proofs
+
+    return {
+        "nash_stable": proofs.is_nash_stable(m, a),
+        # strict pairwise stability (the seed's Theorem 1) coincides with Nash stability
+        # under the seed's reward; the pareto notion is the informative one, so both
+        "pairwise_stable": proofs.is_pairwise_stable(m, a),
+        "pairwise_stable_pareto": proofs.is_pairwise_stable(m, a, mode="pareto"),
+        "nash_stable_capped": proofs.is_nash_stable(m, a, capped=True),
+        "pairwise_stable_capped": proofs.is_pairwise_stable(m, a, capped=True),
+    }
+
+
+def declared_stability(spec: Any, m: Mission, a: Any) -> dict[str, Any]:
+    """The stability ``spec`` (an :class:`heuristics.AlgorithmSpec`) declares, checked.
+
+    ``{"stability": "seed" | "capped" | "own" | "none", "promise": words, "stable":
+    bool or None (nothing promised), "violations": count or None}``: ``seed`` is checked
+    by :func:`proofs.nash_violations`, ``capped`` by it with capped moves and ``own`` by
+    the spec's checker.
+    """
+    import proofs
+
+    kind = spec.stability.value
+    promise = spec.stability.description
+    if kind == "own" and isinstance(spec.checker, str):
+        promise = f"stable by {spec.checker}"
+    checkers: dict[str, Callable[[], Any]] = {
+        "seed": lambda: proofs.nash_violations(m, a),
+        "capped": lambda: proofs.nash_violations(m, a, capped=True),
+        "own": lambda: spec.stability_checker()(m, a),
+    }
+    violations = None if kind not in checkers else len(checkers[kind]())
+    return {
+        "stability": kind,
+        "promise": promise,
+        "stable": None if violations is None else violations == 0,
+        "violations": violations,
+    }
+
+
+def _declared_text(name: str, declared: dict[str, Any]) -> str:
+    if declared["stable"] is None:
+        return f"stability under its own rule: none declared ({name} promises no stability)"
+    verdict = _yes_no(declared["stable"])
+    if declared["violations"]:
+        verdict += f", {plural(declared['violations'], 'violation')}"
+    return f"stability under its own rule ({declared['promise']}): {verdict}"
+
+
+def optimal_gap(m: Mission, utility: float) -> dict[str, Any]:
+    """``cfopt run --gap``: the exact solve of ``m`` and the share of it ``utility`` is.
+
+    ``status`` is the solve's (``optimal`` only when HiGHS proved it); ``optimum`` the
+    proven optimum (``None`` when not proven), ``incumbent`` the best utility the solve
+    found and ``bound`` its proven upper bound; ``percent_of_optimum`` (``None`` when not
+    proven) and ``percent_of_bound``, at most the percent of the optimum, are the run's.
+    """
+    from cfopt.exact import ExactStatus, solve_exact
+
+    result = solve_exact(m, time_limit=_GAP_TIME_LIMIT)
+    proven = result.status is ExactStatus.OPTIMAL
+    return {
+        "status": result.status.value,
+        "optimum": result.utility if proven else None,
+        "incumbent": result.utility,
+        "bound": result.bound,
+        "percent_of_optimum": _percent(utility, result.utility) if proven else None,
+        "percent_of_bound": _percent(utility, result.bound),
+        "seconds": result.seconds,
+    }
+
+
+def _percent(part: float, whole: float) -> float:
+    return 100.0 if whole == 0 else 100.0 * part / whole
+
+
+def _gap_text(gap: dict[str, Any]) -> str:
+    took = f"{gap['seconds']:.3f} s"
+    if gap["status"] == "optimal":
+        return (
+            f"optimum: {gap['optimum']:g} (proven optimal by HiGHS, {took}): the run earns "
+            f"{gap['percent_of_optimum']:.2f}% of the optimum"
+        )
+    if gap["status"] == "time_limit":
+        return (
+            f"optimum: not proven in {_GAP_TIME_LIMIT:g} s (status time_limit, {took}): best "
+            f"found {gap['incumbent']:g}, proven bound {gap['bound']:g}; the run earns at "
+            f"least {gap['percent_of_bound']:.2f}% of the optimum"
+        )
+    return (
+        f"optimum: unknown (the exact solve failed, status {gap['status']}, {took}); "
+        f"trivial bound {gap['bound']:g}: the run earns at least "
+        f"{gap['percent_of_bound']:.2f}% of the optimum"
+    )
 
 
 def _counts_text(result: Any) -> str:
@@ -768,7 +939,7 @@ def _counts_text(result: Any) -> str:
         return "iterations, rounds, messages and bytes not reported"
     return (
         f"{plural(result.iterations, 'iteration')}, {plural(result.rounds, 'round')}, "
-        f"{plural(result.messages, 'message')}, {plural(result.bytes, 'byte')}"
+        f"{plural(result.messages, 'message')}, {byte_count(result.bytes)} of communication"
     )
 
 
@@ -844,7 +1015,7 @@ def _network_summary(report: Any) -> list[str]:
         f"  {ending}; {state}",
         f"  {plural(report.transmissions, 'transmission')}, "
         f"{plural(report.receptions, 'reception')}, {lost:.1%} lost, "
-        f"{report.bytes / 1e6:.3f} MB, {plural(report.proposals, 'proposal')}",
+        f"{byte_count(report.bytes)} transmitted, {plural(report.proposals, 'proposal')}",
         *_transport_summary(report.transport),
     ]
 
@@ -855,7 +1026,7 @@ def _transport_summary(transport: Any) -> list[str]:
     return [
         f"  MPI: {plural(transport.ranks, 'rank')} ({transport.library}), "
         f"{transport.wall_seconds:.3f} s wall, {plural(transport.wire_messages, 'message')} "
-        f"and {transport.wire_bytes / 1e6:.3f} MB on the wire, "
+        f"and {byte_count(transport.wire_bytes)} on the wire, "
         f"{plural(transport.missed_ticks, 'missed tick')}"
     ]
 
@@ -1316,12 +1487,11 @@ def _interrupted(exc: KeyboardInterrupt) -> int:
 
     name = getattr(exc, "signal_name", "SIGINT")
     if isinstance(exc, SweepInterrupted):
-        kept = f"{plural(exc.completed, 'trial')} computed by this run"
-        if exc.extra:
-            kept += f" and {exc.extra}"
+        kept = plural(exc.completed, "trial") + (f" and {exc.extra}" if exc.extra else "")
+        verb = "is" if exc.completed == 1 and not exc.extra else "are"
         _error(
-            f"interrupted ({name}): {kept} are kept in {exc.store}; run the same command "
-            "again to resume"
+            f"interrupted ({name}): {kept} computed by this run {verb} kept in {exc.store}; "
+            "run the same command again to resume"
         )
     else:
         _error(f"interrupted ({name})")

@@ -12,6 +12,7 @@ __all__ = [
     "MissionTypeError",
     "SweepInterrupted",
     "WorkerDied",
+    "byte_count",
     "describe",
     "key_path",
     "parameter_error",
@@ -73,6 +74,28 @@ def plural(count: int, word: str, many: str | None = None) -> str:
     ('1 violation', '4 robots', '2 buses')
     """
     return f"{count} {word if count == 1 else (many or word + 's')}"
+
+
+_DECIMAL_UNITS = ("kB", "MB", "GB", "TB", "PB", "EB", "ZB", "YB")
+
+
+def byte_count(count: int) -> str:
+    """A count of bytes for people: decimal units (1 kB = 1000 bytes), then the exact count.
+
+    Counts below 1000 are only the count.  The command line prints every byte count
+    this way (``--json`` keeps the exact integer).
+
+    >>> byte_count(1), byte_count(999), byte_count(25264), byte_count(503502480000)
+    ('1 byte', '999 bytes', '25.3 kB (25,264 bytes)', '503.5 GB (503,502,480,000 bytes)')
+    """
+    if count < 1000:
+        return plural(count, "byte")
+    value, unit = float(count), ""
+    for unit in _DECIMAL_UNITS:
+        value /= 1000
+        if value < 999.95:
+            break
+    return f"{value:.1f} {unit} ({count:,} bytes)"
 
 
 def describe(value: Any) -> str:

@@ -1014,7 +1014,7 @@ class _SweepRun:
                 self.to_run += len(missing)
         stored = f", {self.skipped} already stored" if self.skipped else ""
         self.stage = self.progress.stage(
-            "trials", self.to_run, "trial", f"{self.to_run} to run{stored}"
+            "trials", self.to_run, "trial", f"{self.to_run} to run{stored}", reused=self.skipped
         )
         self.on_extra = on_extra
         for number, (fn, args, kwargs) in enumerate(extras):
