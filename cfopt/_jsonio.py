@@ -31,6 +31,7 @@ __all__ = [
     "check_text",
     "expect_list",
     "expect_object",
+    "is_null_device",
     "layout_json",
     "make_directory",
     "open_regular_file",
@@ -320,6 +321,20 @@ _NEVER_WRITTEN = (
 def _is_null_device(info: os.stat_result) -> bool:
     null = stat_path(os.devnull)
     return null is not None and os.path.samestat(info, null)
+
+
+def is_null_device(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is the null device (``/dev/null`` or a symbolic link to it): the
+    output every command accepts, to compute and print and keep nothing.
+
+    >>> is_null_device(os.devnull), is_null_device("results.json")
+    (True, False)
+    """
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return False
+    return _is_null_device(info)
 
 
 def output_target(

@@ -17,6 +17,7 @@ import math
 import os
 import signal
 import sys
+import tempfile
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
@@ -147,6 +148,51 @@ def write_output(text: str, target: str, force: bool) -> None:
         sys.stdout.write(text)
     else:
         write_text(text, target, overwrite=force)
+
+
+class NullOutputs(contextlib.ExitStack):
+    """The outputs of one command given as the null device (``-o /dev/null``, ``--store
+    /dev/null``), for a ``with`` block: the command still computes and prints, and keeps
+    nothing.
+
+    :meth:`place` gives such an output a temporary path instead (removed, with whatever
+    was written there, when the block ends); :meth:`shown` and :meth:`discards` say so in
+    what the command prints.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.folders: list[str] = []
+
+    def place(self, path: str | None, name: str) -> str | None:
+        """``path``, or for the null device ``name`` in a fresh temporary folder."""
+        from cfopt._jsonio import is_null_device
+
+        if path is None or path == "-" or not is_null_device(path):
+            return path
+        folder = self.enter_context(tempfile.TemporaryDirectory(prefix="cfopt-discarded-"))
+        self.folders.append(folder)
+        return os.path.join(folder, name)
+
+    def discards(self, path: Any) -> bool:
+        """Whether ``path`` is one of the temporary places (so: discarded)."""
+        text = os.fspath(path) if isinstance(path, str | os.PathLike) else None
+        return text is not None and any(
+            text == f or text.startswith(f + os.sep) for f in self.folders
+        )
+
+    def shown(self, value: Any) -> Any:
+        """A JSON-ready ``value`` as printed: the temporary paths in lists left out, the
+        others shown as the null device."""
+        if isinstance(value, dict):
+            return {k: os.devnull if self.discards(v) else self.shown(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [self.shown(v) for v in value if not self.discards(v)]
+        return value
+
+
+#: What a command prints for the files it wrote to the null device.
+_DISCARDED = f"discarded ({os.devnull})"
 
 
 def _yes_no(value: bool) -> str:
@@ -362,42 +408,51 @@ def _add_audit(sub: argparse.ArgumentParser) -> Handler:
         default="cfopt-audit",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
-        "cfopt-audit); its trials.sqlite lets an interrupted audit resume",
+        "cfopt-audit); its trials.sqlite lets an interrupted audit resume; /dev/null: "
+        "compute and print, keep nothing",
     )
     sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     _add_workers_option(sub)
     _add_quiet_option(sub)
 
     def run(args: argparse.Namespace) -> int:
-        from cfopt._progress import Progress
-        from cfopt.audit import run_audit
-
-        result = run_audit(
-            args.output,
-            quick=args.quick,
-            claims_only=args.claims_only,
-            algorithms=args.algorithms,
-            workers=args.workers,
-            force=args.force,
-            progress=Progress.auto(quiet=args.quiet),
-            claims=args.claims,
-        )
-        if args.json:
-            emit_json(result.to_dict())
-        else:
-            from proofs.claims import format_verdict_table
-
-            if result.report is not None:
-                print(result.report.summary)
-                print()
-            print(format_verdict_table(result.verdicts))
-            for path in result.claim_files:
-                print(f"counterexample: {path}")
-            if result.report is not None:
-                print(f"report: {result.report.markdown}  {result.report.html}")
-        return _report_failures(result.outcome, result.failures)
+        with NullOutputs() as null:
+            return _audit(args, null, null.place(args.output, "audit"))
 
     return run
+
+
+def _audit(args: argparse.Namespace, null: NullOutputs, directory: Any) -> int:
+    from cfopt._progress import Progress
+    from cfopt.audit import run_audit
+
+    result = run_audit(
+        directory,
+        quick=args.quick,
+        claims_only=args.claims_only,
+        algorithms=args.algorithms,
+        workers=args.workers,
+        force=args.force,
+        progress=Progress.auto(quiet=args.quiet),
+        claims=args.claims,
+    )
+    if args.json:
+        emit_json(null.shown(result.to_dict()))
+        return _report_failures(result.outcome, result.failures)
+    from proofs.claims import format_verdict_table
+
+    if result.report is not None:
+        print(result.report.summary)
+        print()
+    print(format_verdict_table(result.verdicts))
+    if null.discards(directory):
+        print(f"report and counterexamples: {_DISCARDED}")
+    else:
+        for path in result.claim_files:
+            print(f"counterexample: {path}")
+        if result.report is not None:
+            print(f"report: {result.report.markdown}  {result.report.html}")
+    return _report_failures(result.outcome, result.failures)
 
 
 def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
@@ -420,14 +475,15 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
         default="cfopt-reproduce",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
-        "cfopt-reproduce)",
+        "cfopt-reproduce); /dev/null: compute and print, keep nothing",
     )
     sub.add_argument(
         "--store",
         type=_STORE_FILE,
         default=None,
         metavar="FILE",
-        help="SQLite result store, created or resumed (default: DIR/trials.sqlite)",
+        help="SQLite result store, created or resumed (default: DIR/trials.sqlite); "
+        "/dev/null: a store of this run only, removed at its end",
     )
     sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     sub.add_argument("--json", action="store_true", help="print one JSON object")
@@ -436,39 +492,48 @@ def _add_reproduce(sub: argparse.ArgumentParser) -> Handler:
     _add_quiet_option(sub)
 
     def run(args: argparse.Namespace) -> int:
-        from cfopt._progress import Progress
-        from cfopt.reproduce import run_reproduce, verdict_tally
+        with NullOutputs() as null:
+            return _reproduce(args, null)
 
-        with _trial_executor(args) as executor:
-            result = run_reproduce(
-                args.output,
-                missions=args.missions,
-                workers=args.workers,
-                executor=executor,
-                store=args.store,
-                distributed=not args.centralized_only,
-                force=args.force,
-                progress=Progress.auto(quiet=args.quiet),
-            )
-        if args.json:
-            emit_json(result.to_dict())
+    return run
+
+
+def _reproduce(args: argparse.Namespace, null: NullOutputs) -> int:
+    from cfopt._progress import Progress
+    from cfopt.reproduce import run_reproduce, verdict_tally
+
+    directory = null.place(args.output, "reproduce")
+    with _trial_executor(args) as executor:
+        result = run_reproduce(
+            directory,
+            missions=args.missions,
+            workers=args.workers,
+            executor=executor,
+            store=null.place(args.store, "trials.sqlite"),
+            distributed=not args.centralized_only,
+            force=args.force,
+            progress=Progress.auto(quiet=args.quiet),
+        )
+    if args.json:
+        emit_json(null.shown(result.to_dict()))
+    else:
+        for line in result.sample:
+            print(f"sample, {line}")
+        print(
+            f"{plural(len(result.comparisons), 'comparison')} with the paper: "
+            f"{verdict_tally(result.counts())}"
+        )
+        if null.discards(directory):
+            print(f"report: {_DISCARDED}")
         else:
-            for line in result.sample:
-                print(f"sample, {line}")
-            print(
-                f"{plural(len(result.comparisons), 'comparison')} with the paper: "
-                f"{verdict_tally(result.counts())}"
-            )
             print(
                 f"report: {result.directory / 'reproduction.md'}  "
                 f"{result.directory / 'reproduction.html'}"
             )
-        code = EXIT_OK
-        for outcome in result.outcomes:
-            code = max(code, _report_failures(outcome))
-        return code
-
-    return run
+    code = EXIT_OK
+    for outcome in result.outcomes:
+        code = max(code, _report_failures(outcome))
+    return code
 
 
 def _add_quiet_option(sub: argparse.ArgumentParser) -> None:
@@ -1271,7 +1336,8 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
         default="cfopt-sweep.sqlite",
         metavar="FILE",
         help="SQLite result store, created or resumed (default: cfopt-sweep.sqlite); its "
-        "folder must exist; one sweep at a time may write to it",
+        "folder must exist; one sweep at a time may write to it; /dev/null: a store of "
+        "this run only, removed at its end",
     )
     _add_quiet_option(sub)
     sub.add_argument("--json", action="store_true", help="print one JSON object")
@@ -1307,18 +1373,19 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             base_seed=args.base_seed,
             time_limit=args.time_limit,
         )
-        with _trial_executor(args) as executor:
+        with NullOutputs() as null, _trial_executor(args) as executor:
             outcome = experiments.run_sweep(
                 sweep,
-                args.store,
+                null.place(args.store, "sweep.sqlite"),
                 executor=executor,
                 workers=args.workers,
                 progress=Progress.auto(quiet=args.quiet),
             )
+            store = os.devnull if null.discards(outcome.store) else outcome.store
         if args.json:
             emit_json(
                 {
-                    "store": outcome.store,
+                    "store": store,
                     "code_version": outcome.code_version,
                     "trials": outcome.total,
                     "completed": outcome.completed,
@@ -1337,7 +1404,7 @@ def _add_sweep(sub: argparse.ArgumentParser) -> Handler:
             else:
                 per = plural(len(sweep.algorithms or ()), "algorithm")
             print(
-                f"{outcome.store}: {plural(outcome.completed, 'trial')} run, "
+                f"{store}: {plural(outcome.completed, 'trial')} run, "
                 f"{outcome.skipped} already stored, {len(outcome.failures)} failed, of "
                 f"{outcome.total} ({cells} x {missions} x {per}), {outcome.seconds:.1f} s"
             )
@@ -1357,7 +1424,7 @@ def _add_report(sub: argparse.ArgumentParser) -> Handler:
         default="cfopt-report",
         metavar="DIR",
         help="report directory, created if missing (its parent folder must exist; default: "
-        "cfopt-report)",
+        "cfopt-report); /dev/null: print the summary, keep no file",
     )
     sub.add_argument("--force", action="store_true", help=_FORCE_DIRECTORY_HELP)
     sub.add_argument(
@@ -1371,17 +1438,20 @@ def _add_report(sub: argparse.ArgumentParser) -> Handler:
     def run(args: argparse.Namespace) -> int:
         from cfopt.report import report_from_store
 
-        report = report_from_store(
-            args.store, args.output, version=args.code_version, force=args.force
-        )
-        if args.json:
-            gap = dict(report.gap_report)
-            gap["report_directory"] = args.output
-            gap["files"] = [str(p) for p in report.files]
-            emit_json(gap)
-        else:
+        with NullOutputs() as null:
+            directory = null.place(args.output, "report")
+            report = report_from_store(
+                args.store, directory, version=args.code_version, force=args.force
+            )
+            if args.json:
+                gap = dict(report.gap_report)
+                gap["report_directory"] = args.output
+                gap["files"] = [str(p) for p in report.files]
+                emit_json(null.shown(gap))
+                return EXIT_OK
             print(report.summary)
-            print(f"report: {report.markdown}  {report.html}")
+            shown = _DISCARDED if null.discards(directory) else f"{report.markdown}  {report.html}"
+            print(f"report: {shown}")
         return EXIT_OK
 
     return run

@@ -58,9 +58,13 @@ def test_run_text_output(mission_file, capsys) -> None:
     m, path = mission_file
     assert main(["run", "grape-s", path]) == 0
     out, _ = capsys.readouterr()
-    first, second, rest = out.split("\n", 2)
+    first, second, third, rest = out.split("\n", 3)
     assert first.startswith("grape-s: utility ")
-    assert "Nash yes" in second and "pairwise (strict)" in second and "pareto" in second
+    assert second.startswith("stability under the seed's reward: Nash yes, pairwise (strict)")
+    assert "pareto" in second
+    assert third == (
+        "stability under its own rule (Nash stable under the seed's reward): yes"
+    )
     assert Assignment.from_dict(m, json.loads(rest)) == grape_s(m).assignment
 
 
