@@ -62,9 +62,7 @@ def test_run_text_output(mission_file, capsys) -> None:
     assert first.startswith("grape-s: utility ")
     assert second.startswith("stability under the seed's reward: Nash yes, pairwise (strict)")
     assert "pareto" in second
-    assert third == (
-        "stability under its own rule (Nash stable under the seed's reward): yes"
-    )
+    assert third == ("stability under its own rule (Nash stable under the seed's reward): yes")
     assert Assignment.from_dict(m, json.loads(rest)) == grape_s(m).assignment
 
 
