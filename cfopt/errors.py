@@ -90,12 +90,10 @@ def byte_count(count: int) -> str:
     """
     if count < 1000:
         return plural(count, "byte")
-    value, unit = float(count), ""
-    for unit in _DECIMAL_UNITS:
-        value /= 1000
-        if value < 999.95:
-            break
-    return f"{value:.1f} {unit} ({count:,} bytes)"
+    value, power = float(count) / 1000, 0
+    while value >= 999.95 and power < len(_DECIMAL_UNITS) - 1:
+        value, power = value / 1000, power + 1
+    return f"{value:.1f} {_DECIMAL_UNITS[power]} ({count:,} bytes)"
 
 
 def describe(value: Any) -> str:

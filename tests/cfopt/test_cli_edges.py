@@ -37,7 +37,7 @@ def over(tmp_path: Path) -> tuple[cfopt.Mission, str]:
 
 def _json(capsys: pytest.CaptureFixture[str], argv: list[str]) -> dict[str, Any]:
     assert main(argv) == 0
-    out, err = capsys.readouterr()
+    out, _ = capsys.readouterr()
     return json.loads(out)
 
 
