@@ -139,6 +139,26 @@ def test_every_readme_command_runs_as_written(tmp_path: Path) -> None:
     assert (tmp_path / "cfopt-audit" / "trials.sqlite").is_file()  # the interrupted main job
 
 
+def test_the_dask_block_runs_saved_as_a_script(tmp_path: Path) -> None:
+    """Saved as a file and run with ``python FILE`` -- how a newcomer runs it -- the
+    block's local cluster imports the script again in each worker process."""
+    pytest.importorskip("distributed")
+    (text,) = [t for kind, t in BLOCKS if kind == "python" and "dask_executor(" in t]
+    script = tmp_path / "sweep_on_dask.py"
+    script.write_text(text, encoding="utf-8")
+    result = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env=_environment(tmp_path),
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "6 trials"  # 2 missions x (exact, grape-s, sda)
+    assert (tmp_path / "dask.sqlite").is_file()
+
+
 @pytest.mark.parametrize("language", ["bash", "python"])
 def test_the_readme_has_blocks(language: str) -> None:
     assert any(kind == language for kind, _ in BLOCKS)
