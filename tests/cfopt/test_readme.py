@@ -99,6 +99,18 @@ def _bash(script: str, folder: Path) -> None:
     assert result.returncode == 0, f"README block failed:\n{script}\n--- stderr:\n{result.stderr}"
 
 
+def _python(argv: list[str], folder: Path) -> subprocess.CompletedProcess[str]:
+    """``python ARGV`` in ``folder``, its output captured."""
+    return subprocess.run(
+        [sys.executable, *argv],
+        cwd=folder,
+        env=_environment(folder),
+        capture_output=True,
+        text=True,
+        timeout=HANG_GUARD,
+    )
+
+
 def test_the_quick_start_installs_as_ci_does() -> None:
     quick_start = BLOCKS[0][1].strip().splitlines()
     assert all(INSTALL.match(line) for line in quick_start), quick_start
@@ -124,15 +136,7 @@ def test_every_readme_command_runs_as_written(tmp_path: Path) -> None:
         else:
             assert not any(limits), f"mixed block: {text}"
             _bash(text, tmp_path)
-    script = "\n\n".join(python_blocks)
-    result = subprocess.run(
-        [sys.executable, "-c", script],
-        cwd=tmp_path,
-        env=_environment(tmp_path),
-        capture_output=True,
-        text=True,
-        timeout=HANG_GUARD,
-    )
+    result = _python(["-c", "\n\n".join(python_blocks)], tmp_path)
     assert result.returncode == 0, result.stderr
     # what the blocks promise about their results
     assert (tmp_path / "a.json").is_file() and (tmp_path / "mine-report" / "report.md").is_file()
@@ -146,14 +150,7 @@ def test_the_dask_block_runs_saved_as_a_script(tmp_path: Path) -> None:
     (text,) = [t for kind, t in BLOCKS if kind == "python" and "dask_executor(" in t]
     script = tmp_path / "sweep_on_dask.py"
     script.write_text(text, encoding="utf-8")
-    result = subprocess.run(
-        [sys.executable, str(script)],
-        cwd=tmp_path,
-        env=_environment(tmp_path),
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    result = _python([str(script)], tmp_path)
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines()[-1] == "6 trials"  # 2 missions x (exact, grape-s, sda)
     assert (tmp_path / "dask.sqlite").is_file()
