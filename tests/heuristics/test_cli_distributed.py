@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -52,8 +53,10 @@ def test_distributed_run_output(mission: Path, capsys: pytest.CaptureFixture[str
     spec = "ring latency=uniform:1ms:10ms loss=0.02"
     assert main(["run", "grape-s", str(mission), "--network", spec, "--seed", "3"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[2].startswith("network: ring (d_G 10), latency uniform:1ms:10ms, loss 0.02")
-    assert "robots stopped by" in out[3] or "cut at" in out[3]
+    at = 3  # after the summary and the two stability lines
+    assert out[at].startswith("network: ring (d_G 10), latency uniform:1ms:10ms, loss 0.02")
+    assert "robots stopped by" in out[at + 1] or "cut at" in out[at + 1]
+    assert re.search(r"\([\d,]+ bytes\) transmitted, | \d+ bytes? transmitted, ", out[at + 2])
     assert main(["run", "grape-s", str(mission), "--network", spec, "--seed", "3", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     network = data["network"]
