@@ -189,7 +189,7 @@ def test_cli_runs_grape_s_select_on_a_network(
     assert main(args) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("grape-s-select: utility")
-    assert out[2].startswith("network: ring (d_G 10), latency uniform:1ms:10ms, loss 0.02")
+    assert out[3].startswith("network: ring (d_G 10), latency uniform:1ms:10ms, loss 0.02")
     fresh = subprocess.run(
         [sys.executable, "-m", "cfopt", *args, "--json"], capture_output=True, text=True
     )
