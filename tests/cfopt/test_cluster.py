@@ -329,9 +329,10 @@ def test_ctrl_c_stops_a_local_cluster_sweep_cleanly(
             process.kill()
     assert process.returncode == 130, err
     kept = _stored(store)
+    verb = "is" if kept == 1 else "are"
     assert err == (
-        f"error: interrupted (SIGINT): {plural(kept, 'trial')} computed by this run are kept in "
-        f"{store}; run the same command again to resume\n"
+        f"error: interrupted (SIGINT): {plural(kept, 'trial')} computed by this run {verb} "
+        f"kept in {store}; run the same command again to resume\n"
     )
     _wait_for(lambda: not any(_alive(pid) for pid in workers), seconds=10)
     address = executor._client.scheduler.address
