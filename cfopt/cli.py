@@ -17,7 +17,6 @@ import math
 import os
 import signal
 import sys
-import tempfile
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
@@ -166,6 +165,8 @@ class NullOutputs(contextlib.ExitStack):
 
     def place(self, path: str | None, name: str) -> str | None:
         """``path``, or for the null device ``name`` in a fresh temporary folder."""
+        import tempfile
+
         from cfopt._jsonio import is_null_device
 
         if path is None or path == "-" or not is_null_device(path):
