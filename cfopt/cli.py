@@ -631,7 +631,7 @@ def _add_run_options(sub: argparse.ArgumentParser) -> None:
         metavar="X",
         help="random seed (same seed, same run); default: fresh",
     )
-    sub.add_argument("--network", default=None, metavar="SPEC", help=_NETWORK_HELP)
+    sub.add_argument("--network", default=None, metavar="SPEC", help=_NETWORK_HELP + _CHANNEL_HELP)
     sub.add_argument(
         "--time-limit",
         type=time_limit_type,
@@ -1083,6 +1083,30 @@ def _network_summary(report: Any) -> list[str]:
         f"{plural(report.receptions, 'reception')}, {lost:.1%} lost, "
         f"{byte_count(report.bytes)} transmitted, {plural(report.proposals, 'proposal')}",
         *_transport_summary(report.transport),
+        *_channel_summary(report.channel),
+    ]
+
+
+# ---------------------------------------------------------------- the radio channel
+_CHANNEL_HELP = (
+    ". A radio channel of finite capacity: bitrate=RATE (bit/s, kbit/s or Mbit/s, e.g. "
+    "2Mbit/s), channel=shared|per-link (default shared: robots in range contend, with "
+    "carrier sensing and collisions), queue=N (each sender's queue bound, default 16 "
+    "frames); encoding=full|compact sizes beliefs on the air"
+)
+
+
+def _channel_summary(channel: Any) -> list[str]:
+    if channel is None:
+        return []
+    return [
+        f"  channel: {channel.bitrate} {channel.model}, {plural(channel.frames, 'frame')} "
+        f"({channel.airtime_seconds:.3f} s of air), utilisation {channel.utilisation:.1%} "
+        f"(busiest robot {channel.peak_utilisation:.1%}), queueing "
+        f"{channel.queueing_mean_seconds * 1e3:.3f} ms mean / "
+        f"{channel.queueing_max_seconds * 1e3:.3f} ms max, "
+        f"{plural(channel.overflows, 'overflow')} (queue {channel.queue}), "
+        f"{plural(channel.collisions, 'collision')}"
     ]
 
 

@@ -607,9 +607,9 @@ def _channel_problem(key: str, value: Any) -> str | None:
             return f"the bit rate must be a whole number of bit/s >= 1, got {describe(value)}"
         return None
     if key == "queue":
-        if not is_whole(value) or not 0 <= value <= 10**9:
+        if not is_whole(value) or not 1 <= value <= 10**9:
             return (
-                f"the queue bound must be a whole number of frames in [0, 1e9], got "
+                f"the queue bound must be a whole number of frames in [1, 1e9], got "
                 f"{describe(value)}"
             )
         return None

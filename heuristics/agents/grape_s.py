@@ -82,6 +82,7 @@ from heuristics.agents.protocol import (
     RunContext,
     RunEnd,
 )
+from heuristics.communication import HEADER_BYTES, ROBOT_ENTRY_BYTES, belief_size
 
 __all__ = [
     "Answer",
@@ -561,6 +562,17 @@ class GrapeSProtocol(Protocol):
 
     def decode(self, data: bytes, context: RunContext) -> Any:
         return decode_belief(data, context.n, pairwise=self.pairwise)
+
+    def encoded_size(self, belief: Any, encoding: str, context: RunContext) -> int:
+        """``compact``: the slots bit-packed (:func:`heuristics.communication.belief_size`),
+        the header and the belief's other fields as :meth:`encode` writes them."""
+        full = len(self.encode(belief))
+        if encoding != "compact":
+            return full
+        n, mission = context.n, context.mission
+        extra = full - HEADER_BYTES - ROBOT_ENTRY_BYTES * n
+        slots = mission.n_tasks * max(mission.n_services, 1)
+        return belief_size(n, slots, encoding="compact", extra_bits=8 * extra)
 
     def decode_message(self, data: bytes, context: RunContext) -> Any:
         return decode_message(data)

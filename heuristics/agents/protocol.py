@@ -370,6 +370,12 @@ class Protocol:
         """The belief :meth:`encode` made ``data`` from."""
         raise NotImplementedError(f"{type(self).__name__} has no decode() (needed over MPI)")
 
+    def encoded_size(self, belief: Any, encoding: str, context: RunContext) -> int:
+        """The bytes of ``belief`` on the air under ``encoding`` (the network token
+        ``encoding=full|compact``).  The default: :meth:`encode`'s length for both (a
+        protocol without a compact form sends its full one)."""
+        return len(self.encode(belief))
+
     def encode_message(self, message: Any) -> bytes:
         """The bytes of a direct message (default: ``message.encode()``)."""
         return message.encode()

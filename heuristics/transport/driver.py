@@ -130,6 +130,9 @@ class NetworkReport:
         ``None`` for a simulated run.  A run of real processes (``backend="mpi"``) fills
         it with what the processes measured (wall time, messages and bytes on the wire);
         its time fields above are then measured wall-clock seconds, not simulated ones.
+    channel : heuristics.transport.channel.ChannelReport or None
+        The radio channel's figures when the network has one (``bitrate=``); ``None``
+        otherwise (and then absent from :meth:`to_dict`).
     """
 
     spec: str
@@ -150,6 +153,7 @@ class NetworkReport:
     beliefs_agree: bool
     cut: bool
     transport: Any = None
+    channel: Any = None
 
     @classmethod
     def on(cls, spec: NetworkSpec, diameter: int, **measured: Any) -> NetworkReport:
@@ -170,8 +174,9 @@ class NetworkReport:
         real processes adds ``transport``."""
         out = asdict(self)
         out["d_G"] = out.pop("diameter")
-        if out["transport"] is None:
-            del out["transport"]
+        for key in ("transport", "channel"):
+            if out[key] is None:
+                del out[key]
         return out
 
 
@@ -613,6 +618,7 @@ def assemble_run(
     seed: int | None,
     engine: tuple[tuple[str, Any], ...],
     transport: Any = None,
+    channel: Any = None,
 ) -> Run:
     """The :class:`heuristics.Run` of a run: every robot's :class:`AgentEnd`, the summed
     counters (:data:`COUNTERS`), the protocol's outcome (read in ``driver``'s process).
@@ -653,6 +659,7 @@ def assemble_run(
         beliefs_agree=bool(outcome.beliefs_agree),
         cut=cut,
         transport=transport,
+        channel=channel,
     )
     S = max(context.mission.n_services, 1)
     return Run(

@@ -150,7 +150,12 @@ def simulate(
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
     if faults is not None and not callable(faults):
         raise MissionTypeError(f"faults: must be callable or None, got {shown(faults)}")
-    sim = Simulator(mission, protocol, spec, seed, limit, quiet_factor, reward, faults)
+    kind = Simulator
+    if spec.bitrate is not None:
+        from heuristics.transport import channel
+
+        kind = channel.RadioSimulator
+    sim = kind(mission, protocol, spec, seed, limit, quiet_factor, reward, faults)
     sim.run()
     return sim.result(time.perf_counter() - started, seed_label(seed))
 
@@ -180,6 +185,7 @@ class Simulator(EventRouting):
             protocol, mission, spec, network, clocks, links, range(n), limit, quiet_factor, reward
         )
         self.faults = faults
+        self.compact = spec.encoding == "compact"
         self.heap: list[tuple[int, int, int, Any]] = []
         self.seq = itertools.count()
         self.now = 0
@@ -209,7 +215,7 @@ class Simulator(EventRouting):
         receivers = self.network.neighbours(i)
         if receivers.size == 0:
             return
-        size = len(self.protocol.encode(belief))
+        size = self._belief_size(belief)
         delays, lost = self._transmit(i, receivers, now)
         sends = receivers.size if self.unicast else 1
         self.transmissions += sends
@@ -220,6 +226,13 @@ class Simulator(EventRouting):
         useful = ~lost & self._can_change(belief, receivers)
         if useful.any():
             self.inflight.add(belief, receivers[useful], now + delays[useful])
+
+    def _belief_size(self, belief: Any) -> int:
+        """A belief's bytes on the air: its encoding, or its compact size
+        (``encoding=compact``: :meth:`heuristics.agents.Protocol.encoded_size`)."""
+        if self.compact:
+            return self.protocol.encoded_size(belief, "compact", self.context)
+        return len(self.protocol.encode(belief))
 
     def _transmit(
         self, sender: int, receivers: npt.NDArray[np.int64], now: int
@@ -247,4 +260,9 @@ class Simulator(EventRouting):
             seconds=seconds,
             seed=seed,
             engine=(("engine", "simulated"),),
+            channel=self.channel_report(),
         )
+
+    def channel_report(self) -> Any:
+        """The radio channel's report (``None``: the network has no channel)."""
+        return None
