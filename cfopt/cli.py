@@ -606,6 +606,7 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         distributed = args.network is not None or args.backend == "mpi"
         if args.ranks is not None and args.backend != "mpi":
             raise MissionError("--ranks: only with --backend mpi")
+        _check_event_options(args)
         m = load_mission(args.mission)
         check_output_free(args)
         given = _given_options(args)
@@ -667,6 +668,58 @@ def _add_run_options(sub: argparse.ArgumentParser) -> None:
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     _add_output_options(sub)
+    _add_event_options(sub)
+
+
+# ------------------------------------------------------------ mission events
+def _add_event_options(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--events",
+        default=None,
+        metavar="FILE",
+        help="with --network (the simulator): a cfopt.events/1 timeline of mission events "
+        "(robots fail or join, tasks arrive or are withdrawn, utilities change; a failure "
+        "detector with heartbeats); the run reports what followed each event against the "
+        "ILP optimum of the mission as it stands",
+    )
+    sub.add_argument(
+        "--plot",
+        type=_OUTPUT_FILE,
+        default=None,
+        metavar="PNG",
+        help="with --events: write a plot of utility over simulated time, the optimum as "
+        "a step line (refuses an existing file unless --force)",
+    )
+
+
+def _check_event_options(args: argparse.Namespace) -> None:
+    if args.events is not None and (args.network is None or args.backend != "sim"):
+        raise MissionError("--events: only with --network, in the simulator (--backend sim)")
+    if args.plot is not None:
+        if args.events is None:
+            raise MissionError("--plot: only with --events")
+        if os.path.exists(args.plot) and not args.force:
+            raise MissionError(f"--plot: {args.plot} exists (--force overwrites it)")
+
+
+def _dynamics_summary(dynamics: Any) -> list[str]:
+    if dynamics is None:
+        return []
+    lines = [
+        f"  events: detector D {dynamics.detector_seconds:g} s, heartbeat "
+        f"{dynamics.heartbeat_seconds:g} s; optimum at the start {dynamics.initial_optimum:g}"
+    ]
+    for e in dynamics.events:
+        if e.reconverge_seconds is None:
+            back = "beliefs not agreeing"
+        else:
+            back = f"re-converged in {e.reconverge_seconds:.3f} s"
+        lines.append(
+            f"  {e.at_seconds:g} s {e.kind} {e.target}: {back}, utility {e.utility_after:g} "
+            f"of optimum {e.optimum:g}, stable {_yes_no(e.stable)}, "
+            f"{plural(e.transmissions, 'transmission')}, {plural(e.bytes, 'byte')}"
+        )
+    return lines
 
 
 #: Seconds ``cfopt run --gap`` gives the exact solve (a sweep's default).
@@ -1052,14 +1105,20 @@ def _distributed(
             seed=args.seed,
             time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
         )
-    return simulate(
+    run = simulate(
         mission,
         agents,
         args.network,
         seed=args.seed,
         time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
         options=options,
+        events=args.events,
     )
+    if args.plot is not None:
+        from heuristics.transport.events import plot_utility
+
+        plot_utility(run.network.dynamics, args.plot, f"{run.algorithm}, {args.network}")
+    return run
 
 
 def _network_summary(report: Any) -> list[str]:
@@ -1084,6 +1143,7 @@ def _network_summary(report: Any) -> list[str]:
         f"{byte_count(report.bytes)} transmitted, {plural(report.proposals, 'proposal')}",
         *_transport_summary(report.transport),
         *_channel_summary(report.channel),
+        *_dynamics_summary(report.dynamics),
     ]
 
 

@@ -67,6 +67,7 @@ def simulate(
     reward: str = "paper",
     faults: Faults | None = None,
     options: Mapping[str, Any] | None = None,
+    events: Any = None,
 ) -> Run:
     """Run ``algorithm``'s agents on ``network`` (see the module docstring).
 
@@ -102,6 +103,11 @@ def simulate(
         default 1) and ``resend_tries`` (0, the plain protocol: see
         :mod:`heuristics.agents.sda`); for ``"grape-s-select"`` ``exchange`` (default
         ``True``: the exchange phase step).  A protocol object has its own.
+    events : Timeline, dict or path, optional
+        Mission events during the run: robots fail or join, tasks arrive or are
+        withdrawn, utilities change (a ``cfopt.events/1`` timeline, with its failure
+        detector: :mod:`heuristics.transport.events`); ``run.network.dynamics`` reports
+        what followed each event and the utility over time against the optimum.
 
     Returns
     -------
@@ -139,4 +145,5 @@ def simulate(
         quiet_factor=quiet_factor,
         reward=reward,
         faults=faults,
+        events=events,
     )

@@ -133,6 +133,9 @@ class NetworkReport:
     channel : heuristics.transport.channel.ChannelReport or None
         The radio channel's figures when the network has one (``bitrate=``); ``None``
         otherwise (and then absent from :meth:`to_dict`).
+    dynamics : heuristics.transport.events.DynamicReport or None
+        A run with mission events: what followed each, utility over time against the
+        optimum; ``None`` otherwise (and then absent from :meth:`to_dict`).
     """
 
     spec: str
@@ -154,6 +157,7 @@ class NetworkReport:
     cut: bool
     transport: Any = None
     channel: Any = None
+    dynamics: Any = None
 
     @classmethod
     def on(cls, spec: NetworkSpec, diameter: int, **measured: Any) -> NetworkReport:
@@ -174,7 +178,7 @@ class NetworkReport:
         real processes adds ``transport``."""
         out = asdict(self)
         out["d_G"] = out.pop("diameter")
-        for key in ("transport", "channel"):
+        for key in ("transport", "channel", "dynamics"):
             if out[key] is None:
                 del out[key]
         return out
@@ -619,6 +623,7 @@ def assemble_run(
     engine: tuple[tuple[str, Any], ...],
     transport: Any = None,
     channel: Any = None,
+    dynamics: Any = None,
 ) -> Run:
     """The :class:`heuristics.Run` of a run: every robot's :class:`AgentEnd`, the summed
     counters (:data:`COUNTERS`), the protocol's outcome (read in ``driver``'s process).
@@ -660,6 +665,7 @@ def assemble_run(
         cut=cut,
         transport=transport,
         channel=channel,
+        dynamics=dynamics,
     )
     S = max(context.mission.n_services, 1)
     return Run(

@@ -79,6 +79,7 @@ def simulate(
     quiet_factor: int | None = None,
     reward: str = "paper",
     faults: Faults | None = None,
+    events: Any = None,
 ) -> Run:
     """Run ``protocol``'s agents on ``network`` (see the module docstring).
 
@@ -105,6 +106,9 @@ def simulate(
         transmission, after the network's own draws, with the receivers as an int64 array
         and the send time in nanoseconds; it returns ``(extra_delay_ns, drop)`` arrays of
         the same length, added to the drawn delays and or-ed into the losses.
+    events : Timeline, dict or path, optional
+        Mission events during the run (a ``cfopt.events/1`` timeline:
+        :mod:`heuristics.transport.events`); ``run.network.dynamics`` then reports them.
 
     Returns
     -------
@@ -155,7 +159,15 @@ def simulate(
         from heuristics.transport import channel
 
         kind = channel.RadioSimulator
+    timeline = None
+    if events is not None:
+        from heuristics.transport import events as dynamics
+
+        timeline = dynamics.Timeline.read(events, mission)
+        kind = dynamics.dynamic_class(kind)
     sim = kind(mission, protocol, spec, seed, limit, quiet_factor, reward, faults)
+    if timeline is not None:
+        sim.setup(timeline)
     sim.run()
     return sim.result(time.perf_counter() - started, seed_label(seed))
 
@@ -261,8 +273,13 @@ class Simulator(EventRouting):
             seed=seed,
             engine=(("engine", "simulated"),),
             channel=self.channel_report(),
+            dynamics=self.dynamic_report(),
         )
 
     def channel_report(self) -> Any:
         """The radio channel's report (``None``: the network has no channel)."""
+        return None
+
+    def dynamic_report(self) -> Any:
+        """The mission events' report (``None``: a run without events)."""
         return None
