@@ -183,6 +183,9 @@ class RadioSimulator(Simulator):
 
     # ------------------------------------------------------------------ the air
     def _on_attempt(self, i: int, t: int) -> None:
+        if not self.queues[i]:  # dropped meanwhile (its robot failed)
+            self.waiting[i] = False
+            return
         busy = int(self.busy_until[i])
         if busy > t:  # sensed busy: wait for the end of what it hears
             self._push(busy, ATTEMPT, i)
