@@ -51,10 +51,10 @@ from heuristics.network import NetworkSpec, format_bitrate
 from heuristics.transport.driver import HOP
 from heuristics.transport.simulator import Simulator
 
-__all__ = ["ATTEMPT", "DONE", "ChannelReport", "Frame", "RadioSimulator", "airtime_ns"]
+__all__ = ["DONE", "ChannelReport", "Frame", "RadioSimulator", "airtime_ns"]
 
-#: The channel's events: a sender tries to put its queue's head on the air; a frame ends.
-ATTEMPT, DONE = 3, 4
+#: The channel's event: a frame ends.
+DONE = 4
 
 
 def airtime_ns(size: int, bitrate: int) -> int:
@@ -145,7 +145,9 @@ class RadioSimulator(Simulator):
         self.queue_bound = spec.queue
         self.queues: dict[int, deque[Frame]] = {}
         self.on_air: dict[int, Frame] = {}  # sender -> its frame on the air
-        self.waiting = np.zeros(n, dtype=bool)  # an ATTEMPT of this sender is pending
+        self.waiting = np.zeros(n, dtype=bool)  # its queue's head waits for the channel
+        self.wait_order = np.zeros(n, dtype=np.int64)  # when it started to (a counter)
+        self.waits = 0
         self.busy_until = np.zeros(n, dtype=np.int64)  # the channel as each robot senses it
         self.heard_until = np.zeros(n, dtype=np.int64)  # the latest audible frame's end
         self.heard_sender = np.full(n, -1, dtype=np.int64)  # and its sender
@@ -154,7 +156,7 @@ class RadioSimulator(Simulator):
         self.sensed_busy = np.zeros(n, dtype=np.int64)  # busy time each robot sensed
         self.frames = self.overflows = self.collisions = 0
         self.airtime = self.queued_total = self.queued_max = 0
-        self.handlers = (*self.handlers, self._on_attempt, self._on_done)
+        self.handlers = (*self.handlers[:3], None, self._on_done, *self.handlers[5:])
 
     # ------------------------------------------------------------------ making frames
     def _broadcast(self, i: int, belief: Any, now: int) -> None:
@@ -177,22 +179,33 @@ class RadioSimulator(Simulator):
             self.overflows += 1
             return
         box.append(frame)
-        if frame.sender not in self.on_air and not self.waiting[frame.sender]:
-            self.waiting[frame.sender] = True
-            self._push(frame.made, ATTEMPT, frame.sender)
+        i = frame.sender
+        if i not in self.on_air and not self.waiting[i]:
+            self._wait(i)
+            if self.busy_until[i] <= frame.made:  # sensed idle: on the air at once
+                self._go(i, frame.made)
 
     # ------------------------------------------------------------------ the air
-    def _on_attempt(self, i: int, t: int) -> None:
-        if not self.queues[i]:  # dropped meanwhile (its robot failed)
-            self.waiting[i] = False
-            return
-        busy = int(self.busy_until[i])
-        if busy > t:  # sensed busy: wait for the end of what it hears
-            self._push(busy, ATTEMPT, i)
-            return
+    def _wait(self, i: int) -> None:
+        self.waiting[i] = True
+        self.wait_order[i] = self.waits
+        self.waits += 1
+
+    def _go(self, i: int, t: int) -> None:
         self.waiting[i] = False
-        frame = self.queues[i].popleft()
-        self._start(frame, t)
+        self._start(self.queues[i].popleft(), t)
+
+    def _release(self, t: int) -> None:
+        """After a frame ended at ``t``: the waiting senders that now sense the channel
+        idle go on the air, in the order they started to wait (each one's start may
+        make the channel busy for the next).  Frames end only here, so no waiting sender
+        is ever left sensing an idle channel."""
+        ready = np.flatnonzero(self.waiting & (self.busy_until <= t))
+        if ready.size > 1:
+            ready = ready[np.argsort(self.wait_order[ready], kind="stable")]
+        for i in ready.tolist():
+            if self.busy_until[i] <= t:
+                self._go(i, t)
 
     def _start(self, frame: Frame, t: int) -> None:
         i, end = frame.sender, t + frame.airtime
@@ -242,9 +255,9 @@ class RadioSimulator(Simulator):
             self._deliver_belief(frame, t)
         else:
             self._deliver_hop(frame, t)
-        if self.queues[i] and not self.waiting[i]:
-            self.waiting[i] = True
-            self._push(t, ATTEMPT, i)
+        if self.queues[i]:
+            self._wait(i)
+        self._release(t)
 
     def _deliver_belief(self, frame: Frame, t: int) -> None:
         receivers = frame.receivers

@@ -513,8 +513,9 @@ class Dynamics:
         self.stand.failed[robot] = True
         self.stopped[robot] = True
         queues = getattr(self, "queues", None)
-        if queues is not None and robot in queues:
+        if queues is not None and robot in queues:  # its frames never go on the air
             queues[robot].clear()
+            self.waiting[robot] = False  # type: ignore[attr-defined]
 
     def _join(self, robot: int, t: int) -> None:
         self.stand.present[robot] = True
