@@ -702,9 +702,22 @@ def _check_event_options(args: argparse.Namespace) -> None:
             raise MissionError(f"--plot: {args.plot} exists (--force overwrites it)")
 
 
-def _dynamics_summary(dynamics: Any) -> list[str]:
+def _judge_events(out: dict[str, Any], result: Any, mission: Mission) -> None:
+    """Each event's survivors' stability (proofs' checker) in the JSON of a dynamic run."""
+    dynamics = None if result.network is None else result.network.dynamics
+    if dynamics is None:
+        return
+    from proofs.claims_dynamic import survivors_stable
+
+    for event, row in zip(dynamics.events, out["network"]["dynamics"]["events"], strict=True):
+        row["survivors_nash_stable"] = survivors_stable(mission, event)
+
+
+def _dynamics_summary(dynamics: Any, mission: Mission) -> list[str]:
     if dynamics is None:
         return []
+    from proofs.claims_dynamic import survivors_stable
+
     lines = [
         f"  events: detector D {dynamics.detector_seconds:g} s, heartbeat "
         f"{dynamics.heartbeat_seconds:g} s; optimum at the start {dynamics.initial_optimum:g}"
@@ -716,7 +729,8 @@ def _dynamics_summary(dynamics: Any) -> list[str]:
             back = f"re-converged in {e.reconverge_seconds:.3f} s"
         lines.append(
             f"  {e.at_seconds:g} s {e.kind} {e.target}: {back}, utility {e.utility_after:g} "
-            f"of optimum {e.optimum:g}, stable {_yes_no(e.stable)}, "
+            f"of optimum {e.optimum:g}, survivors Nash stable "
+            f"{_yes_no(survivors_stable(mission, e))}, "
             f"{plural(e.transmissions, 'transmission')}, {plural(e.bytes, 'byte')}"
         )
     return lines
@@ -929,6 +943,7 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any, spec: Any | No
     if getattr(args, "gap", False):
         out["gap"] = optimal_gap(m, out["utility"])
     out["assignment"] = assignment
+    _judge_events(out, result, m)
     assignment_json = a.to_json(m)
     _save_assignment(assignment_json, args)
     if args.json:
@@ -948,6 +963,7 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any, spec: Any | No
         summary.append(_gap_text(out["gap"]))
     if result.network is not None:
         summary += _network_summary(result.network)
+        summary += _dynamics_summary(result.network.dynamics, m)
     _print_result(summary, assignment_json, args)
     return EXIT_OK
 
@@ -1143,7 +1159,6 @@ def _network_summary(report: Any) -> list[str]:
         f"{byte_count(report.bytes)} transmitted, {plural(report.proposals, 'proposal')}",
         *_transport_summary(report.transport),
         *_channel_summary(report.channel),
-        *_dynamics_summary(report.dynamics),
     ]
 
 

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from cfopt import Mission
+import numpy as np
+
+from cfopt import Assignment, Mission
 from cfopt.generate import SEED_NETWORK
 from proofs.claimkit import (
     ALL_COMPOSITIONS,
@@ -28,8 +30,9 @@ from proofs.claimkit import (
     property_claim,
     tally_summary,
 )
+from proofs.stability import is_nash_stable
 
-__all__ = ["FAIL_AT", "dynamic_claims", "recovery_bound_seconds"]
+__all__ = ["FAIL_AT", "dynamic_claims", "recovery_bound_seconds", "survivors_stable"]
 
 #: When the robot fails (simulated seconds), and the simulator's seed.
 FAIL_AT = "2s"
@@ -38,6 +41,30 @@ SIM_SEED = 0
 DETECTOR_S, HEARTBEAT_S = 0.3, 0.1
 #: The seed network's clock period, jitter and largest latency, in seconds.
 _PERIOD_S, _JITTER, _LATENCY_S = 0.01, 0.1, 0.01
+
+
+def survivors_stable(mission: Mission, outcome: Any) -> bool:
+    """Whether the partition an event's window ended on
+    (:class:`heuristics.transport.events.EventOutcome`) is Nash stable on the sub-mission
+    of the robots and tasks present then (:func:`proofs.stability.is_nash_stable`)."""
+    robots = np.array(outcome.robots, dtype=np.int64)
+    tasks = np.array(outcome.tasks, dtype=np.int64)
+    if robots.size == 0 or tasks.size == 0:
+        return True
+    sub = Mission.from_arrays(
+        mission.capabilities[robots],
+        mission.requirements[tasks],
+        mission.utilities[tasks],
+        services=mission.services,
+    )
+    S = max(mission.n_services, 1)
+    slots = np.array(outcome.partition, dtype=np.int64)[robots]
+    where = np.full(mission.n_tasks, -1, dtype=np.int64)
+    where[tasks] = np.arange(tasks.size)
+    task = np.where(slots >= 0, where[np.maximum(slots, 0) // S], -1)
+    placed = task >= 0
+    assignment = Assignment(task=task, service=np.where(placed, slots % S, -1))
+    return bool(is_nash_stable(sub, assignment))
 
 
 def recovery_bound_seconds(diameter: int) -> float:
@@ -75,7 +102,7 @@ def _stable_after(algorithm: str) -> Any:
         if found is None:
             return Evaluation(None, 0.0, ("nobody assigned",))
         run, after, events = found
-        if after.stable and after.reconverge_seconds is not None:
+        if after.reconverge_seconds is not None and survivors_stable(m, after):
             return Evaluation(None, 0.0, ("stable again",))
         state = "beliefs disagree" if after.reconverge_seconds is None else "not Nash stable"
         detail = (

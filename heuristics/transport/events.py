@@ -30,16 +30,8 @@ not carried by the network), ``NewsArrived`` when a belief newer than a stopped 
 own is sent to it.  A stopped agent whose ``on_event`` returns ``True`` ticks again from
 its robot's next tick.
 
-What the shipped protocols do
------------------------------
-GRAPE-S and Pair-GRAPE-S (:meth:`heuristics.agents.GrapeSAgent.on_event`): a detected
-failure frees the failed robot's slot in the detecting robot's belief (an update, made
-again whenever a newer belief shows that robot assigned); a withdrawn task's robots are
-freed and the selection rule follows the present tasks and current utilities; every
-event, news included, sets the robot running again, its quiet count reset (Pair-GRAPE-S
-back in its GRAPE-S phase), so robots move again where the change makes a slot better.
-GRAPE-S-Select, SDA and any protocol keeping the default ignore events: their robots do
-not react (SDA does not re-open an auction).
+How a protocol reacts is its own: :mod:`heuristics.simulate` says what the shipped
+protocols do.
 
 Scoring over time
 -----------------
@@ -49,9 +41,10 @@ Every ``sample`` (default 10 clock periods) the utility of what the present robo
 perform (their own beliefs' slots) is recorded against that optimum.  Per event the
 report (:class:`EventOutcome`) gives the time to re-converge (from the event to the last
 belief change before the next event or the end; ``None`` when the robots' beliefs do not
-agree then), the transmissions and bytes spent until then, and whether the partition
-the robots then hold is Nash stable for the surviving robots and present tasks
-(:func:`proofs.stability.is_nash_stable` on that sub-mission).
+agree then), the transmissions and bytes spent until then, and the partition the robots
+then hold with the surviving robots and present tasks, so that the verification layer
+judges its stability on that sub-mission (:func:`proofs.claims_dynamic.survivors_stable`,
+``proofs``' Nash checker: what ``cfopt run`` prints and the claims check).
 """
 
 from __future__ import annotations
@@ -65,7 +58,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from cfopt import Assignment, Mission, MissionError
+from cfopt import Mission, MissionError
 from cfopt._jsonio import check_keys, expect_list, expect_object, read_json
 from heuristics.agents.protocol import (
     MissionChanged,
@@ -247,9 +240,10 @@ class EventOutcome:
         not agree at the window's end).
     transmissions, bytes : int
         Spent during the window (heartbeats included).
-    stable : bool
-        The partition at the window's end is Nash stable on the surviving robots and
-        the present tasks.
+    partition : tuple of int
+        Every robot's slot (``task * S + service``, -1: none or absent) at the window's end.
+    robots, tasks : tuple of int
+        The robots and tasks present then.
     """
 
     at_seconds: float
@@ -260,7 +254,9 @@ class EventOutcome:
     reconverge_seconds: float | None
     transmissions: int
     bytes: int
-    stable: bool
+    partition: tuple[int, ...]
+    robots: tuple[int, ...]
+    tasks: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -341,22 +337,6 @@ class _Stand:
         counts = np.bincount(placed, minlength=m.n_tasks * S).reshape(m.n_tasks, S)
         done = (counts >= m.requirements).all(axis=1) & self.active
         return math.fsum(self.utilities[done].tolist())
-
-    def stable(self, slots: npt.NDArray[np.int64]) -> bool:
-        """Nash stability of ``slots`` on the surviving robots and present tasks."""
-        from proofs.stability import is_nash_stable
-
-        sub, robots, tasks = self.sub()
-        if sub is None:
-            return True
-        S = max(self.mission.n_services, 1)
-        mine = slots[robots]
-        where = np.full(self.mission.n_tasks, -1, dtype=np.int64)
-        where[tasks] = np.arange(tasks.size)
-        task = np.where(mine >= 0, where[np.maximum(mine, 0) // S], -1)
-        ok = task >= 0
-        assignment = Assignment(task=np.where(ok, task, -1), service=np.where(ok, mine % S, -1))
-        return bool(is_nash_stable(sub, assignment))
 
 
 def dynamic_class(base: type) -> type:
@@ -545,7 +525,9 @@ class Dynamics:
                 reconverge_seconds=max(settled, 0) / 1e9 if len(keys) <= 1 else None,
                 transmissions=self.transmissions - window["transmissions"],  # type: ignore[attr-defined]
                 bytes=self.bytes - window["bytes"],  # type: ignore[attr-defined]
-                stable=self.stand.stable(slots),
+                partition=tuple(slots.tolist()),
+                robots=tuple(np.flatnonzero(self.stand.present).tolist()),
+                tasks=tuple(np.flatnonzero(self.stand.active).tolist()),
             )
         )
 

@@ -20,6 +20,7 @@ import heuristics
 from cfopt import MissionError
 from heuristics.agents import Agent, Protocol
 from heuristics.transport.events import Timeline
+from proofs.claims_dynamic import survivors_stable
 
 #: Three robots of one service; t0 needs two of them (utility 3), t1 one (utility 1).
 #: GRAPE-S (lock-step, complete) ends on r0 -> t1, r1 and r2 -> t0: utility 4, optimal.
@@ -43,10 +44,11 @@ def test_a_failure_on_three_robots_hand_computed() -> None:
     run = heuristics.simulate(THREE, "grape-s", SYNC, seed=0, events=_fail("r1"))
     dyn = run.network.dynamics
     assert run.assignment.task.tolist() == [1, -1, 0]
+    assert dyn.events[0].partition == (1, -1, 0) and dyn.events[0].robots == (0, 2)
     assert dyn.initial_optimum == 4.0
     (after,) = dyn.events
     assert (after.kind, after.target, after.at_seconds) == ("fail", "r1", 1.0)
-    assert after.optimum == 3.0 and after.utility_after == 1.0 and after.stable
+    assert after.optimum == 3.0 and after.utility_after == 1.0 and survivors_stable(THREE, after)
     assert after.reconverge_seconds == pytest.approx(0.32)
     assert (dyn.detector_seconds, dyn.heartbeat_seconds) == (0.3, 0.1)
     # utility over time: 0 at the start, 4 once formed, 1 after the failure; the optimum
@@ -65,7 +67,7 @@ def test_a_failure_the_partition_does_not_need() -> None:
     """r0 (alone on t1) fails: t0 is still complete, utility 3 = the new optimum."""
     run = heuristics.simulate(THREE, "grape-s", SYNC, seed=0, events=_fail("r0"))
     (after,) = run.network.dynamics.events
-    assert (after.utility_after, after.optimum, after.stable) == (3.0, 3.0, True)
+    assert (after.utility_after, after.optimum, survivors_stable(THREE, after)) == (3.0, 3.0, True)
     assert after.reconverge_seconds == pytest.approx(0.32)
 
 
@@ -78,7 +80,7 @@ def test_a_task_arrival_the_partition_absorbs() -> None:
     dyn = run.network.dynamics
     assert dyn.initial_optimum == 3.0
     (after,) = dyn.events
-    assert (after.optimum, after.utility_after, after.stable) == (4.0, 4.0, True)
+    assert (after.optimum, after.utility_after, survivors_stable(THREE, after)) == (4.0, 4.0, True)
     assert sorted(run.assignment.task.tolist()) == [0, 0, 1]
     assert after.reconverge_seconds is not None and after.reconverge_seconds < 0.1
 
@@ -91,7 +93,7 @@ def test_a_robot_joins_and_is_placed() -> None:
     dyn = run.network.dynamics
     assert dyn.initial_optimum == 3.0
     (after,) = dyn.events
-    assert (after.optimum, after.utility_after, after.stable) == (4.0, 4.0, True)
+    assert (after.optimum, after.utility_after, survivors_stable(THREE, after)) == (4.0, 4.0, True)
 
 
 def test_withdrawal_and_utility_change() -> None:
@@ -104,7 +106,7 @@ def test_withdrawal_and_utility_change() -> None:
     }
     run = heuristics.simulate(THREE, "grape-s", SYNC, seed=0, events=events)
     gone, up = run.network.dynamics.events
-    assert (gone.optimum, gone.utility_after, gone.stable) == (1.0, 1.0, True)
+    assert (gone.optimum, gone.utility_after, survivors_stable(THREE, gone)) == (1.0, 1.0, True)
     assert (up.optimum, up.utility_after) == (5.0, 5.0)
     assert (run.assignment.task == 0).sum() == 0
 
@@ -178,13 +180,16 @@ def test_cfopt_run_events(tmp_path: Path) -> None:
     base = ["run", "grape-s", "m.json", "--network", SYNC, "--seed", "0", "--events", "e.json"]
     text = _cfopt(*base, "-o", "/dev/null", cwd=tmp_path)
     assert text.returncode == 0, text.stderr
-    assert "1 s fail r1: re-converged in 0.320 s, utility 1 of optimum 3, stable yes" in (
-        text.stdout
+    assert (
+        "1 s fail r1: re-converged in 0.320 s, utility 1 of optimum 3, survivors Nash stable yes"
+        in (text.stdout)
     )
     out = _cfopt(*base, "--json", "--plot", "u.png", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
-    assert data["network"]["dynamics"]["events"][0]["optimum"] == 3.0
+    event = data["network"]["dynamics"]["events"][0]
+    assert event["optimum"] == 3.0 and event["survivors_nash_stable"] is True
+    assert event["partition"] == [1, -1, 0] and event["robots"] == [0, 2]
     assert (tmp_path / "u.png").read_bytes()[:4] == b"\x89PNG"
     for bad, place in [
         (["--events", "e.json"], "--events: only with --network"),
