@@ -190,7 +190,8 @@ class GrapeSAgent(Agent):
         self.ticks += 1
         self.work += self.examined
         changed = self._mutex(received)
-        changed |= self._repair(now)
+        if self.failed or self.problem.absent_tasks:  # only in runs with mission events
+            changed |= self._repair(now)
         changed |= self._select(now)
         self._after(changed)
         return self.belief, []
@@ -296,7 +297,8 @@ class PairGrapeSAgent(GrapeSAgent):
         self.ticks += 1
         self.work += self.examined
         changed = self._mutex(received)
-        changed |= self._repair(now)
+        if self.failed or self.problem.absent_tasks:
+            changed |= self._repair(now)
         out: Outbox = []
         for message in inbox:
             if isinstance(message, Answer):
