@@ -606,6 +606,7 @@ def _add_run(sub: argparse.ArgumentParser) -> Handler:
         distributed = args.network is not None or args.backend == "mpi"
         if args.ranks is not None and args.backend != "mpi":
             raise MissionError("--ranks: only with --backend mpi")
+        _check_event_options(args)
         m = load_mission(args.mission)
         check_output_free(args)
         given = _given_options(args)
@@ -631,7 +632,7 @@ def _add_run_options(sub: argparse.ArgumentParser) -> None:
         metavar="X",
         help="random seed (same seed, same run); default: fresh",
     )
-    sub.add_argument("--network", default=None, metavar="SPEC", help=_NETWORK_HELP)
+    sub.add_argument("--network", default=None, metavar="SPEC", help=_NETWORK_HELP + _CHANNEL_HELP)
     sub.add_argument(
         "--time-limit",
         type=time_limit_type,
@@ -667,6 +668,72 @@ def _add_run_options(sub: argparse.ArgumentParser) -> None:
     )
     sub.add_argument("--json", action="store_true", help="print one JSON object")
     _add_output_options(sub)
+    _add_event_options(sub)
+
+
+# ------------------------------------------------------------ mission events
+def _add_event_options(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--events",
+        default=None,
+        metavar="FILE",
+        help="with --network (the simulator): a cfopt.events/1 timeline of mission events "
+        "(robots fail or join, tasks arrive or are withdrawn, utilities change; a failure "
+        "detector with heartbeats); the run reports what followed each event against the "
+        "ILP optimum of the mission as it stands",
+    )
+    sub.add_argument(
+        "--plot",
+        type=_OUTPUT_FILE,
+        default=None,
+        metavar="PNG",
+        help="with --events: write a plot of utility over simulated time, the optimum as "
+        "a step line (refuses an existing file unless --force)",
+    )
+
+
+def _check_event_options(args: argparse.Namespace) -> None:
+    if args.events is not None and (args.network is None or args.backend != "sim"):
+        raise MissionError("--events: only with --network, in the simulator (--backend sim)")
+    if args.plot is not None:
+        if args.events is None:
+            raise MissionError("--plot: only with --events")
+        if os.path.exists(args.plot) and not args.force:
+            raise MissionError(f"--plot: {args.plot} exists (--force overwrites it)")
+
+
+def _judge_events(out: dict[str, Any], result: Any, mission: Mission) -> None:
+    """Each event's survivors' stability (proofs' checker) in the JSON of a dynamic run."""
+    dynamics = None if result.network is None else result.network.dynamics
+    if dynamics is None:
+        return
+    from proofs.claims_dynamic import survivors_stable
+
+    for event, row in zip(dynamics.events, out["network"]["dynamics"]["events"], strict=True):
+        row["survivors_nash_stable"] = survivors_stable(mission, event)
+
+
+def _dynamics_summary(dynamics: Any, mission: Mission) -> list[str]:
+    if dynamics is None:
+        return []
+    from proofs.claims_dynamic import survivors_stable
+
+    lines = [
+        f"  events: detector D {dynamics.detector_seconds:g} s, heartbeat "
+        f"{dynamics.heartbeat_seconds:g} s; optimum at the start {dynamics.initial_optimum:g}"
+    ]
+    for e in dynamics.events:
+        if e.reconverge_seconds is None:
+            back = "beliefs not agreeing"
+        else:
+            back = f"re-converged in {e.reconverge_seconds:.3f} s"
+        lines.append(
+            f"  {e.at_seconds:g} s {e.kind} {e.target}: {back}, utility {e.utility_after:g} "
+            f"of optimum {e.optimum:g}, survivors Nash stable "
+            f"{_yes_no(survivors_stable(mission, e))}, "
+            f"{plural(e.transmissions, 'transmission')}, {plural(e.bytes, 'byte')}"
+        )
+    return lines
 
 
 #: Seconds ``cfopt run --gap`` gives the exact solve (a sweep's default).
@@ -876,6 +943,7 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any, spec: Any | No
     if getattr(args, "gap", False):
         out["gap"] = optimal_gap(m, out["utility"])
     out["assignment"] = assignment
+    _judge_events(out, result, m)
     assignment_json = a.to_json(m)
     _save_assignment(assignment_json, args)
     if args.json:
@@ -895,6 +963,7 @@ def finish_run(args: argparse.Namespace, m: Mission, result: Any, spec: Any | No
         summary.append(_gap_text(out["gap"]))
     if result.network is not None:
         summary += _network_summary(result.network)
+        summary += _dynamics_summary(result.network.dynamics, m)
     _print_result(summary, assignment_json, args)
     return EXIT_OK
 
@@ -1052,14 +1121,20 @@ def _distributed(
             seed=args.seed,
             time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
         )
-    return simulate(
+    run = simulate(
         mission,
         agents,
         args.network,
         seed=args.seed,
         time_limit=args.time_limit or DEFAULT_TIME_LIMIT,
         options=options,
+        events=args.events,
     )
+    if args.plot is not None:
+        from heuristics.transport.events import plot_utility
+
+        plot_utility(run.network.dynamics, args.plot, f"{run.algorithm}, {args.network}")
+    return run
 
 
 def _network_summary(report: Any) -> list[str]:
@@ -1083,6 +1158,30 @@ def _network_summary(report: Any) -> list[str]:
         f"{plural(report.receptions, 'reception')}, {lost:.1%} lost, "
         f"{byte_count(report.bytes)} transmitted, {plural(report.proposals, 'proposal')}",
         *_transport_summary(report.transport),
+        *_channel_summary(report.channel),
+    ]
+
+
+# ---------------------------------------------------------------- the radio channel
+_CHANNEL_HELP = (
+    ". A radio channel of finite capacity: bitrate=RATE (bit/s, kbit/s or Mbit/s, e.g. "
+    "2Mbit/s), channel=shared|per-link (default shared: robots in range contend, with "
+    "carrier sensing and collisions), queue=N (each sender's queue bound, default 16 "
+    "frames); encoding=full|compact sizes beliefs on the air"
+)
+
+
+def _channel_summary(channel: Any) -> list[str]:
+    if channel is None:
+        return []
+    return [
+        f"  channel: {channel.bitrate} {channel.model}, {plural(channel.frames, 'frame')} "
+        f"({channel.airtime_seconds:.3f} s of air), utilisation {channel.utilisation:.1%} "
+        f"(busiest robot {channel.peak_utilisation:.1%}), queueing "
+        f"{channel.queueing_mean_seconds * 1e3:.3f} ms mean / "
+        f"{channel.queueing_max_seconds * 1e3:.3f} ms max, "
+        f"{plural(channel.overflows, 'overflow')} (queue {channel.queue}), "
+        f"{plural(channel.collisions, 'collision')}"
     ]
 
 

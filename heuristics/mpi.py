@@ -54,7 +54,7 @@ from heuristics.transport.driver import (
     seed_entropy,
     world_streams,
 )
-from heuristics.transport.mpi import TransportReport, check_ranks
+from heuristics.transport.mpi import TransportReport, check_ranks, refuse_channel
 
 __all__ = [
     "INSTALL",
@@ -181,6 +181,7 @@ def mpi_run(
     require_mission(mission)
     protocol = protocol_for(algorithm, options)
     spec = network_spec(network)
+    refuse_channel(spec)
     ranks = check_ranks(mission.n_robots, ranks)
     quiet_factor = quiet_factor_for(spec, mission.n_robots, quiet_factor)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)

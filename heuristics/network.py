@@ -67,6 +67,9 @@ from heuristics._graphs import bfs_distances
 from heuristics._graphs import diameter as exact_diameter
 
 __all__ = [
+    "AIR_ENCODINGS",
+    "CHANNELS",
+    "DEFAULT_QUEUE",
     "EDGE_LIST_MEMORY_PER_BYTE",
     "MAX_DELAY_NS",
     "MAX_DURATION_NS",
@@ -78,7 +81,9 @@ __all__ = [
     "Loss",
     "Network",
     "NetworkSpec",
+    "format_bitrate",
     "format_duration",
+    "parse_bitrate",
     "parse_duration",
 ]
 
@@ -106,7 +111,17 @@ _TOPOLOGY_PARAMS: Mapping[str, tuple[str, ...]] = {
 }
 _PARAM_USAGE = {"radius": "radius=R", "p": "p=P", "k": "k=K"}
 _GENERAL_KEYS = ("latency", "loss", "medium", "period", "jitter", "sync")
+#: The radio channel's keys (:mod:`heuristics.transport.channel`), after the others.
+_CHANNEL_KEYS = ("bitrate", "channel", "queue", "encoding")
+_SPEC_KEYS = (*_GENERAL_KEYS, *_CHANNEL_KEYS)
 _MEDIA = ("broadcast", "unicast")
+#: The channel models: one channel shared by robots in range, or one per link.
+CHANNELS = ("shared", "per-link")
+#: The belief encodings on the air (:mod:`heuristics.communication`).
+AIR_ENCODINGS = ("full", "compact")
+#: The default bound of a sender's queue, in frames waiting (the one on the air not counted).
+DEFAULT_QUEUE = 16
+_RATE_UNITS = {"Mbit/s": 10**6, "kbit/s": 10**3, "bit/s": 1}
 _TOPOLOGY_LIST = "complete, ring, grid, geometric, er, smallworld or file=PATH"
 #: Generated topologies whose realised graph :meth:`Network.to_dict` writes edge by edge.
 _RANDOM_TOPOLOGIES = ("geometric", "er", "smallworld", "file")
@@ -181,6 +196,49 @@ def format_duration(ns: int) -> str:
         if ns % scale == 0:
             return f"{ns // scale}{unit}"
     raise AssertionError("unreachable: every whole number is a whole number of ns")
+
+
+_RATE_RE = re.compile(rf"({_NUMBER})(Mbit/s|kbit/s|bit/s)\Z", re.ASCII)
+
+
+def _bitrate(text: str) -> int:
+    match = _RATE_RE.match(text) if len(text) <= _LONGEST_TEXT else None
+    if match is None:
+        raise _Problem(
+            f"{text!r} is not a bit rate: expected a number and a unit (bit/s, kbit/s or "
+            "Mbit/s), e.g. '2Mbit/s'"
+        )
+    value = Fraction(match[1]) * _RATE_UNITS[match[2]]
+    if value.denominator != 1 or value < 1:
+        raise _Problem(f"the bit rate must be a whole number of bit/s >= 1, got {text}")
+    if value > MAX_DURATION_NS:
+        raise _Problem(f"the bit rate must be at most {MAX_DURATION_NS} bit/s, got {text}")
+    return int(value)
+
+
+def parse_bitrate(text: str) -> int:
+    """A bit rate with its unit (``bit/s``, ``kbit/s`` or ``Mbit/s``) in whole bit/s.
+
+    >>> parse_bitrate("2Mbit/s"), parse_bitrate("0.5kbit/s"), parse_bitrate("9600bit/s")
+    (2000000, 500, 9600)
+    """
+    try:
+        return _bitrate(text)
+    except _Problem as exc:
+        raise MissionError(f"{text}: {exc}") from None
+
+
+def format_bitrate(bits_per_second: int) -> str:
+    """The canonical text of a bit rate: the largest unit that keeps it whole.
+
+    >>> format_bitrate(2_000_000), format_bitrate(54_500_000), format_bitrate(9600)
+    ('2Mbit/s', '54500kbit/s', '9600bit/s')
+    """
+    rate = int(bits_per_second)
+    for unit, scale in _RATE_UNITS.items():
+        if rate % scale == 0:
+            return f"{rate // scale}{unit}"
+    raise AssertionError("unreachable: every whole number is a whole number of bit/s")
 
 
 def _number(text: str, what: str) -> float:
@@ -541,7 +599,30 @@ def _param_problem(topology: str, key: str, value: Any) -> str | None:
     return None
 
 
+def _channel_problem(key: str, value: Any) -> str | None:
+    if key == "bitrate":
+        if value is None:
+            return None
+        if not is_whole(value) or not 1 <= value <= MAX_DURATION_NS:
+            return f"the bit rate must be a whole number of bit/s >= 1, got {describe(value)}"
+        return None
+    if key == "queue":
+        if not is_whole(value) or not 1 <= value <= 10**9:
+            return (
+                f"the queue bound must be a whole number of frames in [1, 1e9], got "
+                f"{describe(value)}"
+            )
+        return None
+    choices = CHANNELS if key == "channel" else AIR_ENCODINGS
+    if value not in choices:
+        shown = repr(value) if isinstance(value, str) else describe(value)
+        return f"must be {' or '.join(choices)}, got {shown}"
+    return None
+
+
 def _general_problem(key: str, value: Any) -> str | None:
+    if key in _CHANNEL_KEYS:
+        return _channel_problem(key, value)
     if key == "medium":
         shown = repr(value) if isinstance(value, str) else describe(value)
         return None if value in _MEDIA else f"must be broadcast or unicast, got {shown}"
@@ -573,7 +654,13 @@ def _convert_general(key: str, text: str) -> Any:
         if text not in ("true", "false"):
             raise _Problem(f"must be true or false, got {text!r}")
         return text == "true"
-    return text  # medium
+    if key == "bitrate":
+        return _bitrate(text)
+    if key == "queue":
+        if not _WHOLE_RE.match(text):
+            raise _Problem(f"the queue bound must be a whole number of frames, got {text!r}")
+        return int(text)
+    return text  # medium, channel, encoding
 
 
 def _convert_param(key: str, text: str) -> Any:
@@ -676,6 +763,15 @@ class NetworkSpec:
     #: The edges as read from a text edge list (distinct ids and an index table), so
     #: that :meth:`build` looks each id up once.
     edge_table: EdgeTable | None = field(default=None, compare=False, repr=False)
+    #: The radio channel's bit rate in bit/s (``None``: no channel, links of unlimited
+    #: capacity; :mod:`heuristics.transport.channel`).
+    bitrate: int | None = None
+    #: ``shared`` (robots in range contend for one channel) or ``per-link``.
+    channel: str = "shared"
+    #: The bound of each sender's queue: frames waiting, the one on the air not counted.
+    queue: int = DEFAULT_QUEUE
+    #: How beliefs are encoded on the air: ``full`` or ``compact`` (bit-packed slots).
+    encoding: str = "full"
 
     def __post_init__(self) -> None:
         if self.topology not in TOPOLOGIES:
@@ -693,10 +789,11 @@ class NetworkSpec:
                 object.__setattr__(self, key, int(value) if key == "k" else float(value))
             elif value is not None:
                 raise MissionError(f"{key}: {_only_for(key)}, not to {self.topology}")
-        for key in _GENERAL_KEYS:
+        for key in _SPEC_KEYS:
             _raise(_general_problem(key, getattr(self, _FIELD_OF.get(key, key))), key)
         object.__setattr__(self, "period_ns", int(self.period_ns))
         object.__setattr__(self, "jitter", float(self.jitter))
+        self._check_channel()
         self._check_profile()
         self._check_edges()
 
@@ -729,6 +826,15 @@ class NetworkSpec:
         from heuristics.profiles import PROFILES
 
         return PROFILES[self.profile].quiet(int(n_robots), self)
+
+    def _check_channel(self) -> None:
+        if self.bitrate is not None:
+            object.__setattr__(self, "bitrate", int(self.bitrate))
+            object.__setattr__(self, "queue", int(self.queue))
+            return
+        for key, default in (("channel", "shared"), ("queue", DEFAULT_QUEUE)):
+            if getattr(self, key) != default:
+                raise MissionError(f"{key}: only a network with a channel (bitrate=RATE) has {key}")
 
     def _check_edges(self) -> None:
         if self.topology != "file":
@@ -774,11 +880,17 @@ class NetworkSpec:
             latency=constant:D | uniform:A:B | exponential:MEAN | lognormal:MEDIAN:SIGMA
             loss=P | ge:P_GOOD_TO_BAD:P_BAD_TO_GOOD:LOSS_IN_BAD
             medium=broadcast|unicast  period=D  jitter=F  sync=true|false
+            bitrate=RATE  channel=shared|per-link  queue=N  encoding=full|compact
 
         A profile name (``seed``, :mod:`heuristics.profiles`) may stand for the topology:
         the spec is then the profile's, and the tokens after it override its fields
         (``seed loss=0.05``).  Durations carry a unit (``ns``, ``us``, ``ms``, ``s``:
         ``5ms``, ``0.2s``).
+        Bit rates carry theirs (``bit/s``, ``kbit/s``, ``Mbit/s``: ``2Mbit/s``).
+        ``bitrate`` gives the network a radio channel of that capacity (``channel``,
+        ``queue``: its model and each sender's queue bound, default 16 frames; see
+        :mod:`heuristics.transport.channel`); ``encoding`` how beliefs are sized on the
+        air.
         ``file=PATH`` reads an edge list now: a ``.json`` file holding a list of
         ``[robot_id, robot_id]`` pairs, or any other file with two robot ids per line
         (blank lines and ``#`` comments allowed); a path with spaces is taken whole
@@ -833,7 +945,7 @@ class NetworkSpec:
         elif sep and key == "file":
             topology = "file"
             values.update(cls._read_edges(head, value))
-        elif sep and (key in _GENERAL_KEYS or key in _PARAM_USAGE):
+        elif sep and (key in _SPEC_KEYS or key in _PARAM_USAGE):
             raise _token_error(head, f"the spec must start with a topology ({_TOPOLOGY_LIST})")
         elif head == "file":
             raise _token_error(head, "give the edge list as file=PATH")
@@ -858,8 +970,8 @@ class NetworkSpec:
                 raise _token_error(token, "the topology comes first, and only once")
             if key in _PARAM_USAGE and key not in params:
                 raise _token_error(token, f"{_only_for(key)}, not to {topology}")
-            if key not in params and key not in _GENERAL_KEYS:
-                allowed = ", ".join((*params, *_GENERAL_KEYS))
+            if key not in params and key not in _SPEC_KEYS:
+                allowed = ", ".join((*params, *_SPEC_KEYS))
                 raise _token_error(token, f"unknown key {key!r} (expected one of: {allowed})")
             try:
                 if key in params:
@@ -930,7 +1042,7 @@ class NetworkSpec:
         NetworkSpec(topology='file', radius=None, p=None, k=None, edges=(('a', 'b'),), ...)
         """
         top = expect_object(data, "")
-        optional = ("format", "profile", "radius", "p", "k", "edges", *_GENERAL_KEYS)
+        optional = ("format", "profile", "radius", "p", "k", "edges", *_SPEC_KEYS)
         if "profile" in top:
             optional = ("topology", *optional)
         check_keys(top, "", () if "profile" in top else ("topology",), optional)
@@ -1039,6 +1151,10 @@ class NetworkSpec:
             "period": format_duration(self.period_ns),
             "jitter": _number_text(self.jitter),
             "sync": "true" if self.sync else "false",
+            "bitrate": "" if self.bitrate is None else format_bitrate(self.bitrate),
+            "channel": self.channel,
+            "queue": str(self.queue),
+            "encoding": self.encoding,
         }
 
     def to_dict(self) -> dict[str, Any]:
@@ -1069,6 +1185,10 @@ class NetworkSpec:
         data["period"] = texts["period"]
         data["jitter"] = self.jitter
         data["sync"] = self.sync
+        if self.encoding != "full":
+            data["encoding"] = self.encoding
+        if self.bitrate is not None:
+            data.update(bitrate=texts["bitrate"], channel=self.channel, queue=self.queue)
         return data
 
     def to_json(self) -> str:
@@ -1308,7 +1428,7 @@ def _json_token(key: str, raw: Any) -> str:
         return "true" if raw else "false"
     if key in ("radius", "p", "jitter", "loss") and _is_real(raw):
         return _number_text(raw) if math.isfinite(raw) else describe(raw)
-    if key == "k" and is_whole(raw) and raw >= 0:
+    if key in ("k", "queue") and is_whole(raw) and raw >= 0:
         return str(raw)
     if key == "k" and isinstance(raw, float) and raw.is_integer() and raw >= 0:
         return str(int(raw))
@@ -1318,6 +1438,10 @@ def _json_token(key: str, raw: Any) -> str:
         "medium": '"broadcast" or "unicast"',
         "sync": "true or false",
         "k": "a whole number",
+        "queue": "a whole number",
+        "bitrate": 'a bit rate with a unit, e.g. "2Mbit/s"',
+        "channel": '"shared" or "per-link"',
+        "encoding": '"full" or "compact"',
     }.get(key, "a number")
     raise _Problem(f"must be {shown}, got {describe(raw)}")
 

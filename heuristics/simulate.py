@@ -18,6 +18,22 @@ algorithm (Nash stable for GRAPE-S, nothing left for the pairwise step of Pair-G
 no move and no phase step left for GRAPE-S-Select), at the time the last of them adopted
 it; SDA's is in :mod:`heuristics.agents.sda`.  A run that has not ended by its simulated
 time limit is *cut* and reported as such, with the robots' beliefs as they stand.
+
+Mission events
+--------------
+With ``events=`` (a timeline: :mod:`heuristics.transport.events`) robots fail or join
+and tasks arrive, are withdrawn or change utility during the run.
+
+What the shipped protocols do
+-----------------------------
+GRAPE-S and Pair-GRAPE-S (:meth:`heuristics.agents.GrapeSAgent.on_event`): a detected
+failure frees the failed robot's slot in the detecting robot's belief (an update, made
+again whenever a newer belief shows that robot assigned); a withdrawn task's robots are
+freed and the selection rule follows the present tasks and current utilities; every
+event, news included, sets the robot running again, its quiet count reset (Pair-GRAPE-S
+back in its GRAPE-S phase), so robots move again where the change makes a slot better.
+GRAPE-S-Select, SDA and any protocol keeping the default ignore events: their robots do
+not react (SDA does not re-open an auction).
 """
 
 from __future__ import annotations
@@ -67,6 +83,7 @@ def simulate(
     reward: str = "paper",
     faults: Faults | None = None,
     options: Mapping[str, Any] | None = None,
+    events: Any = None,
 ) -> Run:
     """Run ``algorithm``'s agents on ``network`` (see the module docstring).
 
@@ -102,6 +119,11 @@ def simulate(
         default 1) and ``resend_tries`` (0, the plain protocol: see
         :mod:`heuristics.agents.sda`); for ``"grape-s-select"`` ``exchange`` (default
         ``True``: the exchange phase step).  A protocol object has its own.
+    events : Timeline, dict or path, optional
+        Mission events during the run: robots fail or join, tasks arrive or are
+        withdrawn, utilities change (a ``cfopt.events/1`` timeline, with its failure
+        detector: :mod:`heuristics.transport.events`); ``run.network.dynamics`` reports
+        what followed each event and the utility over time against the optimum.
 
     Returns
     -------
@@ -139,4 +161,5 @@ def simulate(
         quiet_factor=quiet_factor,
         reward=reward,
         faults=faults,
+        events=events,
     )

@@ -4,7 +4,8 @@
 
 1. the seed paper's claims (:mod:`proofs.claims_seed`: L1 ... I1) and its distributed
    claims (:mod:`proofs.claims_distributed`: D1 ... X9);
-2. cfopt's claims about its own algorithms (:mod:`proofs.claims_cfopt`: C1 ... O3);
+2. cfopt's claims about its own algorithms (:mod:`proofs.claims_cfopt`: C1 ... O3) and
+   about recovery after a robot fails (:mod:`proofs.claims_dynamic`: F1 ... F3);
 3. the claims of installed packages: every entry point of group ``cfopt.claims``
    (:data:`ENTRY_POINT_GROUP`), loaded on first use of :data:`CLAIMS`; each entry loads a
    Claim, a list of Claims, or a callable returning either;
@@ -46,6 +47,7 @@ from cfopt import MissionError
 from proofs.claimkit import Claim, Scope, Verdict
 from proofs.claims_cfopt import cfopt_claims
 from proofs.claims_distributed import distributed_claims
+from proofs.claims_dynamic import dynamic_claims
 from proofs.claims_generic import algorithm_claims as generic_claims
 from proofs.claims_seed import seed_claims
 
@@ -102,6 +104,7 @@ class ClaimRegistry(Mapping[str, Claim]):
         if self._built is None:
             self._built = {c.id: c for c in (*seed_claims(), *distributed_claims())}
             self._built.update((c.id, c) for c in cfopt_claims())
+            self._built.update((c.id, c) for c in dynamic_claims())
             try:
                 self._load_entry_points()
             except BaseException:

@@ -26,6 +26,7 @@ otherwise (and for the utility-weighted reward of :mod:`heuristics.reward`).
 
 from __future__ import annotations
 
+import itertools
 import math
 import struct
 from collections.abc import Mapping
@@ -37,13 +38,24 @@ import numpy.typing as npt
 from cfopt import Mission
 from heuristics.reward import VOID, reward_model
 
-__all__ = ["Belief", "Changes", "Problem", "belief_history", "decode_belief", "encode_belief"]
+__all__ = [
+    "GONE",
+    "Belief",
+    "Changes",
+    "Problem",
+    "belief_history",
+    "decode_belief",
+    "encode_belief",
+]
 
 _HEADER = struct.Struct("<iiq")  # r, robot id, time (ns)
 _PASS = struct.Struct("<ii")  # Pair-GRAPE-S: cursor, made
 #: Floats compare loads exactly while (n + 2) * max requirement stays below this.
 _EXACT_FLOATS = 2**51
 _NO_SLOT = -1
+#: The slot of a robot presumed failed (a run with mission events): not unassigned, gone.
+GONE = -2
+_TOKENS = itertools.count()
 
 Trail = tuple[Any, ...] | None
 #: The ``(robot, slot)`` changes of one update.
@@ -206,6 +218,9 @@ class Problem:
     mission : cfopt.Mission
     reward : {"paper", "utility"}
         The reward weighting of :mod:`heuristics.reward`.
+    active : ndarray of bool, optional
+        Which tasks are present (a run with mission events): an absent task's slots
+        are nobody's to join.  Default: every task.
 
     Notes
     -----
@@ -216,14 +231,23 @@ class Problem:
     the unit of ``work``.
     """
 
-    def __init__(self, mission: Mission, reward: str = "paper") -> None:
+    def __init__(
+        self, mission: Mission, reward: str = "paper", active: npt.ArrayLike | None = None
+    ) -> None:
         caps, reqs = mission.capabilities, mission.requirements
+        if active is not None:
+            reqs = np.where(np.asarray(active, dtype=bool)[:, None], reqs, 0)
         self.caps = caps
         self.n, self.S = caps.shape
         self.m = reqs.shape[0]
         self.n_slots = self.m * self.S
         self.req = reqs.ravel().astype(np.int64)
         self.model = reward_model(mission, reward)
+        self.reward = reward
+        #: Tells this rule's cached results on a belief from another rule's.
+        self.token = next(_TOKENS)
+        #: Some task is absent (its requirements zero here).
+        self.absent_tasks = bool((self.req.reshape(self.m, self.S).sum(axis=1) == 0).any())
         slots = np.flatnonzero(self.req)
         order = np.lexsort((slots // max(self.S, 1), slots % max(self.S, 1)))
         self.group_slots = slots[order]
@@ -259,7 +283,7 @@ class Problem:
 
     def type_best(self, belief: Belief, kind: int, capped: bool) -> tuple[Any, int]:
         """``(key, slot)`` of the best slot a robot of capability type ``kind`` can join."""
-        cache_key = (capped, kind)
+        cache_key = (capped, kind, self.token)
         found = belief._cache.get(cache_key)
         if found is None:
             keys, slots = self.service_bests(belief, capped)
@@ -284,7 +308,7 @@ class Problem:
 
     def service_bests(self, belief: Belief, capped: bool) -> tuple[Any, npt.NDArray[np.int64]]:
         """Per service the best joining key and slot (``-1``: none) on ``belief``."""
-        cache_key = ("services", capped)
+        cache_key = ("services", capped, self.token)
         found = belief._cache.get(cache_key)
         if found is None:
             found = (
@@ -337,8 +361,13 @@ class Problem:
             placed = own >= 0
             current = np.full(self.n, math.inf)
             current[placed] = counts[own[placed]] / self.req[own[placed]]
+            current[own == GONE] = -math.inf  # a failed robot has no move
             best = np.array(
                 [self.type_best(belief, kind, capped)[0] for kind in range(len(self.type_services))]
             )
             return not bool((best[self.robot_type] < current).any()) if self.n else True
-        return all(self.best_move(belief, i, capped) is None for i in range(self.n))
+        return all(
+            self.best_move(belief, i, capped) is None
+            for i in range(self.n)
+            if belief.slots[i] != GONE
+        )

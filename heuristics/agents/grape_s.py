@@ -66,6 +66,7 @@ from typing import Any
 import numpy as np
 
 from heuristics.agents.belief import (
+    GONE,
     Belief,
     Changes,
     Problem,
@@ -77,11 +78,15 @@ from heuristics.agents.protocol import (
     Agent,
     AgentContext,
     Key,
+    MissionChanged,
     Protocol,
     ProtocolOutcome,
+    RobotFailed,
+    RobotRecovered,
     RunContext,
     RunEnd,
 )
+from heuristics.communication import HEADER_BYTES, ROBOT_ENTRY_BYTES, belief_size
 
 __all__ = [
     "Answer",
@@ -178,12 +183,15 @@ class GrapeSAgent(Agent):
         self.ticks = self.proposals = self.work = 0
         self.examined = int(problem.examined[robot])
         self.made: dict[Key, tuple[Changes, Key]] = {}
+        self.failed: set[int] = set()  # neighbours its detector presumes failed
 
     def tick(self, now: int, received: Belief | None, inbox: list[Any]) -> tuple[Belief, Outbox]:
         """One clock tick: mutex, selection, then the belief to broadcast and direct sends."""
         self.ticks += 1
         self.work += self.examined
         changed = self._mutex(received)
+        if self.failed or self.problem.absent_tasks:  # only in runs with mission events
+            changed |= self._repair(now)
         changed |= self._select(now)
         self._after(changed)
         return self.belief, []
@@ -197,6 +205,45 @@ class GrapeSAgent(Agent):
             self.belief = received
             return True
         return False
+
+    # ------------------------------------------------------------ mission events
+    def on_event(self, now: int, event: Any) -> bool:
+        """GRAPE-S's reaction to a mission event: a neighbour presumed failed has its slot
+        freed in this robot's belief (an update by this robot, made again whenever a
+        belief shows it assigned); a withdrawn task's robots are freed and the selection
+        rule follows the mission as it now stands; on any event (news, a join) the robot
+        runs again, its quiet count reset, and moves if it has a better slot."""
+        if isinstance(event, RobotRecovered):
+            self.failed.discard(event.robot)
+            return False
+        if isinstance(event, RobotFailed):
+            self.failed.add(event.robot)
+        elif isinstance(event, MissionChanged):
+            self.problem = _problem_for(event, self.problem)
+            self.examined = int(self.problem.examined[self.robot])
+        self._repair(now)
+        self._restart()
+        return True
+
+    def _restart(self) -> None:
+        self.quiet = 0
+        self.stopped = False
+
+    def _repair(self, now: int) -> bool:
+        """Mark, in this robot's belief, the presumed-failed robots gone (:data:`GONE`:
+        their slots freed, and no longer unassigned robots to the pairwise step) and free
+        the robots on tasks no longer present (one update)."""
+        slots = self.belief.slots
+        changes = {f: GONE for f in self.failed if slots[f] != GONE}
+        if self.problem.absent_tasks:
+            placed = np.flatnonzero(slots >= 0)
+            for r in placed[self.problem.req[slots[placed]] == 0].tolist():
+                changes.setdefault(r, -1)
+        if not changes:
+            return False
+        self._update(tuple(sorted((int(r), int(v)) for r, v in changes.items())), now)
+        self.proposals += 1
+        return True
 
     def _select(self, now: int) -> bool:
         target = self.problem.best_move(self.belief, self.robot, self.capped)
@@ -219,6 +266,15 @@ class GrapeSAgent(Agent):
             self.stopped = True
 
 
+def _problem_for(event: MissionChanged, old: Problem) -> Problem:
+    """The selection rule on the mission as ``event`` says it stands (built once per
+    event, shared by the robots)."""
+    problem = event.cache.get("problem")
+    if problem is None:
+        problem = event.cache["problem"] = Problem(event.mission, old.reward, event.active)
+    return problem
+
+
 class PairGrapeSAgent(GrapeSAgent):
     """One robot running Pair-GRAPE-S (module docstring); ``hops(a, b)`` gives route
     lengths for the request timeout."""
@@ -233,10 +289,16 @@ class PairGrapeSAgent(GrapeSAgent):
         self.exchanges = 0
         self.step_needed = False  # the pairwise step had work when this robot reached it
 
+    def _restart(self) -> None:
+        super()._restart()
+        self.phase, self.pending = 1, None  # GRAPE-S moves again, then the pairwise step
+
     def tick(self, now: int, received: Belief | None, inbox: list[Any]) -> tuple[Belief, Outbox]:
         self.ticks += 1
         self.work += self.examined
         changed = self._mutex(received)
+        if self.failed or self.problem.absent_tasks:
+            changed |= self._repair(now)
         out: Outbox = []
         for message in inbox:
             if isinstance(message, Answer):
@@ -326,17 +388,18 @@ def pairwise_plan(problem: Problem, belief: Belief) -> tuple[int, int, int] | No
 
     Cached per belief; O(U A) numpy work for ``U`` unassigned and ``A`` assigned robots.
     """
-    if "plan" in belief._cache:
-        return belief._cache["plan"]
+    key = ("plan", problem.token)
+    if key in belief._cache:
+        return belief._cache[key]
     plan = _plan(problem, belief)
-    belief._cache["plan"] = plan
+    belief._cache[key] = plan
     return plan
 
 
 def _plan(problem: Problem, belief: Belief) -> tuple[int, int, int] | None:
     short = _short(problem, belief)
     slots = belief.slots.astype(np.int64)
-    unassigned = np.flatnonzero(slots < 0)
+    unassigned = np.flatnonzero(slots == -1)  # not the failed (GONE)
     if not short.any() or unassigned.size == 0:
         return None
     S = problem.S
@@ -471,10 +534,11 @@ def chain_plan(problem: Problem, belief: Belief) -> tuple[int, tuple, tuple, int
     """``(o, (a_1..a_k), their slots, end slot)`` of the chain step on ``belief``, or
     ``None``: the centralized variant's choice (:mod:`heuristics.pair_grape_s_chain`)
     with the pass state of the belief.  Cached per belief; one shortest-path search."""
-    if "chain" in belief._cache:
-        return belief._cache["chain"]
+    key = ("chain", problem.token)
+    if key in belief._cache:
+        return belief._cache[key]
     plan = _chain(problem, belief)
-    belief._cache["chain"] = plan
+    belief._cache[key] = plan
     return plan
 
 
@@ -484,7 +548,7 @@ def _chain(problem: Problem, belief: Belief) -> tuple[int, tuple, tuple, int] | 
     S = problem.S
     short = _short(problem, belief).reshape(problem.m, S)
     slots = belief.slots.astype(np.int64)
-    unassigned = np.flatnonzero(slots < 0)
+    unassigned = np.flatnonzero(slots == -1)  # not the failed (GONE)
     if not short.any() or unassigned.size == 0:
         return None
     task = np.where(slots >= 0, slots // S, -1)
@@ -561,6 +625,17 @@ class GrapeSProtocol(Protocol):
 
     def decode(self, data: bytes, context: RunContext) -> Any:
         return decode_belief(data, context.n, pairwise=self.pairwise)
+
+    def encoded_size(self, belief: Any, encoding: str, context: RunContext) -> int:
+        """``compact``: the slots bit-packed (:func:`heuristics.communication.belief_size`),
+        the header and the belief's other fields as :meth:`encode` writes them."""
+        full = len(self.encode(belief))
+        if encoding != "compact":
+            return full
+        n, mission = context.n, context.mission
+        extra = full - HEADER_BYTES - ROBOT_ENTRY_BYTES * n
+        slots = mission.n_tasks * max(mission.n_services, 1)
+        return belief_size(n, slots, encoding="compact", extra_bits=8 * extra)
 
     def decode_message(self, data: bytes, context: RunContext) -> Any:
         return decode_message(data)

@@ -402,6 +402,10 @@ class GrapeSSelectAgent(GrapeSAgent):
         self.proposals += 1
         return True
 
+    def on_event(self, now: int, event: Any) -> bool:
+        """GRAPE-S-Select does not react to mission events (the agent API's default)."""
+        return False
+
     def _after(self, changed: bool) -> None:
         self.quiet = 0 if changed else self.quiet + 1
         if self.quiet >= self.quiet_limit and self._idle():

@@ -82,6 +82,21 @@ none).  The transport sums the agents' ``work`` (counted computation) into
 agent tells the observer (picklable: over MPI it travels to rank 0) and
 :meth:`Protocol.outcome` reads the run's :class:`RunEnd` into a :class:`ProtocolOutcome`.
 
+Mission events
+--------------
+A simulated run may be given a timeline of mission events
+(:mod:`heuristics.transport.events`: robots fail or join, tasks arrive or are withdrawn,
+utilities change).  The transport tells an agent what *its robot* can know, through
+:meth:`Agent.on_event` with one of: :class:`RobotFailed` (its failure detector presumes a
+neighbour failed), :class:`RobotRecovered` (a presumed-failed neighbour was heard again),
+:class:`RobotJoined` (its own robot has just joined, or it first heard a robot
+that joined), :class:`MissionChanged` (the
+mission as it now stands, announced to every robot), :class:`NewsArrived` (a belief
+newer than its own reached it while it was stopped).  ``on_event`` returns ``True`` to
+run again: a stopped clocked agent is then ticked again from its robot's next tick.  The
+default ignores every event and returns ``False``, so a protocol written without events
+runs unchanged (its robots simply do not react).
+
 MPI
 ---
 For :func:`heuristics.mpi_run` a protocol object is pickled to the ranks: it (and
@@ -107,9 +122,14 @@ __all__ = [
     "Agent",
     "AgentContext",
     "Key",
+    "MissionChanged",
+    "NewsArrived",
     "NoBelief",
     "Protocol",
     "ProtocolOutcome",
+    "RobotFailed",
+    "RobotJoined",
+    "RobotRecovered",
     "RunContext",
     "RunEnd",
     "Sends",
@@ -203,6 +223,58 @@ class NoBelief:
 NO_BELIEF = NoBelief()
 
 
+@dataclass(frozen=True)
+class RobotFailed:
+    """This robot's failure detector presumes neighbour ``robot`` failed."""
+
+    robot: int
+
+
+@dataclass(frozen=True)
+class RobotRecovered:
+    """A neighbour this robot presumed failed has been heard again."""
+
+    robot: int
+
+
+@dataclass(frozen=True)
+class RobotJoined:
+    """Robot ``robot`` has joined the mission: told to the robot itself when it joins,
+    and to each neighbour when it first hears it."""
+
+    robot: int
+
+
+@dataclass(frozen=True)
+class NewsArrived:
+    """A belief newer than this stopped robot's own (of key ``key``) is on its way to it."""
+
+    key: Key
+
+
+@dataclass(frozen=True)
+class MissionChanged:
+    """The mission as it now stands, announced to every robot at a task event.
+
+    Attributes
+    ----------
+    mission : cfopt.Mission
+        The mission with the utilities as they now are (every task of the run, those
+        absent included).
+    active : ndarray of bool
+        Which tasks are present (arrived and not withdrawn).
+    withdrawn : tuple of int
+        The tasks this event withdrew.
+    cache : dict
+        Shared by every robot's copy of the event: what a protocol builds once from it.
+    """
+
+    mission: Mission
+    active: npt.NDArray[np.bool_] = field(repr=False)
+    withdrawn: tuple[int, ...] = ()
+    cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+
 class Agent:
     """A robot's agent, with the defaults of every attribute the transports read (see
     the module docstring for the contract).
@@ -251,6 +323,11 @@ class Agent:
     def performed_slot(self) -> int:
         """The slot ``task * S + service`` the robot performs at the end (``-1``: none)."""
         return -1
+
+    def on_event(self, now: int, event: Any) -> bool:
+        """A mission event reached this robot (module docstring, *Mission events*);
+        ``True``: run again.  The default ignores it."""
+        return False
 
 
 @dataclass(frozen=True)
@@ -369,6 +446,12 @@ class Protocol:
     def decode(self, data: bytes, context: RunContext) -> Any:
         """The belief :meth:`encode` made ``data`` from."""
         raise NotImplementedError(f"{type(self).__name__} has no decode() (needed over MPI)")
+
+    def encoded_size(self, belief: Any, encoding: str, context: RunContext) -> int:
+        """The bytes of ``belief`` on the air under ``encoding`` (the network token
+        ``encoding=full|compact``).  The default: :meth:`encode`'s length for both (a
+        protocol without a compact form sends its full one)."""
+        return len(self.encode(belief))
 
     def encode_message(self, message: Any) -> bytes:
         """The bytes of a direct message (default: ``message.encode()``)."""

@@ -130,6 +130,12 @@ class NetworkReport:
         ``None`` for a simulated run.  A run of real processes (``backend="mpi"``) fills
         it with what the processes measured (wall time, messages and bytes on the wire);
         its time fields above are then measured wall-clock seconds, not simulated ones.
+    channel : heuristics.transport.channel.ChannelReport or None
+        The radio channel's figures when the network has one (``bitrate=``); ``None``
+        otherwise (and then absent from :meth:`to_dict`).
+    dynamics : heuristics.transport.events.DynamicReport or None
+        A run with mission events: what followed each, utility over time against the
+        optimum; ``None`` otherwise (and then absent from :meth:`to_dict`).
     """
 
     spec: str
@@ -150,6 +156,8 @@ class NetworkReport:
     beliefs_agree: bool
     cut: bool
     transport: Any = None
+    channel: Any = None
+    dynamics: Any = None
 
     @classmethod
     def on(cls, spec: NetworkSpec, diameter: int, **measured: Any) -> NetworkReport:
@@ -170,8 +178,9 @@ class NetworkReport:
         real processes adds ``transport``."""
         out = asdict(self)
         out["d_G"] = out.pop("diameter")
-        if out["transport"] is None:
-            del out["transport"]
+        for key in ("transport", "channel", "dynamics"):
+            if out[key] is None:
+                del out[key]
         return out
 
 
@@ -613,6 +622,8 @@ def assemble_run(
     seed: int | None,
     engine: tuple[tuple[str, Any], ...],
     transport: Any = None,
+    channel: Any = None,
+    dynamics: Any = None,
 ) -> Run:
     """The :class:`heuristics.Run` of a run: every robot's :class:`AgentEnd`, the summed
     counters (:data:`COUNTERS`), the protocol's outcome (read in ``driver``'s process).
@@ -653,6 +664,8 @@ def assemble_run(
         beliefs_agree=bool(outcome.beliefs_agree),
         cut=cut,
         transport=transport,
+        channel=channel,
+        dynamics=dynamics,
     )
     S = max(context.mission.n_services, 1)
     return Run(

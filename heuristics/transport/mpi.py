@@ -117,7 +117,7 @@ from heuristics.transport.driver import (
     world_streams,
 )
 
-__all__ = ["TransportReport", "check_ranks", "robots_of", "run_ranks"]
+__all__ = ["TransportReport", "check_ranks", "refuse_channel", "robots_of", "run_ranks"]
 
 _BELIEF, _DIRECT = 0, 1  # tag = 2 * robot + kind
 _SLEEP_NS = 200_000  # the longest nap between two looks at the wire
@@ -177,6 +177,17 @@ class TransportReport:
         return out
 
 
+def refuse_channel(spec: NetworkSpec) -> None:
+    """Refuse a spec with a radio channel (``bitrate=``): a run of real processes has the
+    real network's capacity, the channel model is the simulator's."""
+    if spec.bitrate is not None:
+        raise MissionError(
+            "network: bitrate: a radio channel of finite capacity is the simulator's model; "
+            "an MPI run has the real network's",
+            cli="--network: bitrate: a radio channel is simulated only (not with --backend mpi)",
+        )
+
+
 def check_ranks(n_robots: int, ranks: Any) -> int:
     """``ranks`` if ``1 <= ranks <= n`` (at most one rank per robot); otherwise
     :class:`cfopt.MissionError` naming ``ranks``."""
@@ -209,6 +220,7 @@ def run_ranks(
     require_mission(mission)
     require_protocol(protocol)
     spec = network_spec(network)
+    refuse_channel(spec)
     check_ranks(mission.n_robots, comm.Get_size())
     quiet_factor = quiet_factor_for(spec, mission.n_robots, quiet_factor)
     limit, quiet_factor = run_limits(time_limit, quiet_factor)

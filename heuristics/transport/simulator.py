@@ -79,6 +79,7 @@ def simulate(
     quiet_factor: int | None = None,
     reward: str = "paper",
     faults: Faults | None = None,
+    events: Any = None,
 ) -> Run:
     """Run ``protocol``'s agents on ``network`` (see the module docstring).
 
@@ -105,6 +106,9 @@ def simulate(
         transmission, after the network's own draws, with the receivers as an int64 array
         and the send time in nanoseconds; it returns ``(extra_delay_ns, drop)`` arrays of
         the same length, added to the drawn delays and or-ed into the losses.
+    events : Timeline, dict or path, optional
+        Mission events during the run (a ``cfopt.events/1`` timeline:
+        :mod:`heuristics.transport.events`); ``run.network.dynamics`` then reports them.
 
     Returns
     -------
@@ -150,7 +154,20 @@ def simulate(
     limit, quiet_factor = run_limits(time_limit, quiet_factor)
     if faults is not None and not callable(faults):
         raise MissionTypeError(f"faults: must be callable or None, got {shown(faults)}")
-    sim = Simulator(mission, protocol, spec, seed, limit, quiet_factor, reward, faults)
+    kind = Simulator
+    if spec.bitrate is not None:
+        from heuristics.transport import channel
+
+        kind = channel.RadioSimulator
+    timeline = None
+    if events is not None:
+        from heuristics.transport import events as dynamics
+
+        timeline = dynamics.Timeline.read(events, mission)
+        kind = dynamics.dynamic_class(kind)
+    sim = kind(mission, protocol, spec, seed, limit, quiet_factor, reward, faults)
+    if timeline is not None:
+        sim.setup(timeline)
     sim.run()
     return sim.result(time.perf_counter() - started, seed_label(seed))
 
@@ -180,6 +197,7 @@ class Simulator(EventRouting):
             protocol, mission, spec, network, clocks, links, range(n), limit, quiet_factor, reward
         )
         self.faults = faults
+        self.compact = spec.encoding == "compact"
         self.heap: list[tuple[int, int, int, Any]] = []
         self.seq = itertools.count()
         self.now = 0
@@ -209,7 +227,7 @@ class Simulator(EventRouting):
         receivers = self.network.neighbours(i)
         if receivers.size == 0:
             return
-        size = len(self.protocol.encode(belief))
+        size = self._belief_size(belief)
         delays, lost = self._transmit(i, receivers, now)
         sends = receivers.size if self.unicast else 1
         self.transmissions += sends
@@ -220,6 +238,13 @@ class Simulator(EventRouting):
         useful = ~lost & self._can_change(belief, receivers)
         if useful.any():
             self.inflight.add(belief, receivers[useful], now + delays[useful])
+
+    def _belief_size(self, belief: Any) -> int:
+        """A belief's bytes on the air: its encoding, or its compact size
+        (``encoding=compact``: :meth:`heuristics.agents.Protocol.encoded_size`)."""
+        if self.compact:
+            return self.protocol.encoded_size(belief, "compact", self.context)
+        return len(self.protocol.encode(belief))
 
     def _transmit(
         self, sender: int, receivers: npt.NDArray[np.int64], now: int
@@ -247,4 +272,14 @@ class Simulator(EventRouting):
             seconds=seconds,
             seed=seed,
             engine=(("engine", "simulated"),),
+            channel=self.channel_report(),
+            dynamics=self.dynamic_report(),
         )
+
+    def channel_report(self) -> Any:
+        """The radio channel's report (``None``: the network has no channel)."""
+        return None
+
+    def dynamic_report(self) -> Any:
+        """The mission events' report (``None``: a run without events)."""
+        return None

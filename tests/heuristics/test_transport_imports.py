@@ -42,6 +42,7 @@ ALLOWED = {
     "heuristics.transport",
     "heuristics.transport.driver",
     "heuristics.transport.simulator",
+    "heuristics.transport.channel",
     "heuristics.transport.mpi",
 }
 

@@ -65,6 +65,9 @@ EXPECTED = {
     "O1": VerdictKind.HOLDS,
     "O2": VerdictKind.FAILS,
     "O3": VerdictKind.HOLDS,
+    "F1": VerdictKind.HOLDS,
+    "F2": VerdictKind.HOLDS,
+    "F3": VerdictKind.HOLDS,
 }
 
 
@@ -77,11 +80,25 @@ def test_claim_list_starts_with_the_seed_stability_and_optimality_claims() -> No
 
 #: What each claim's check ranges over: the paper's own sizes (G4: 100..150 robots; H4:
 #: its 10:5 grid; O3: the n = 100 grid; the distributed claims on its 100-robot cells),
-#: the simulator at other sizes and topologies (X9), else the family at any size.
+#: the simulator at other sizes and topologies (X9; F1-F3: recovery), else the family at any size.
 PAPER_SIZES = {"G4", "H4", "O3", "D1", "D2", "D3", "D4", "D4-seed", "D5", "D5-seed"}
-SIMULATOR = {"X9"}
+SIMULATOR = {"X9", "F1", "F2", "F3"}
 #: The distributed claims: each states its network.
-DISTRIBUTED = {"D1", "D1g", "D2", "D2g", "D3", "D4", "D4-seed", "D5", "D5-seed", "X9"}
+DISTRIBUTED = {
+    "D1",
+    "D1g",
+    "D2",
+    "D2g",
+    "D3",
+    "D4",
+    "D4-seed",
+    "D5",
+    "D5-seed",
+    "X9",
+    "F1",
+    "F2",
+    "F3",
+}
 #: Claims about a statistic (or an observation over the grid): never a counterexample.
 STATISTICAL = {"H4", "O3", "D3", "D4", "D4-seed", "D5", "D5-seed"}
 
@@ -156,7 +173,7 @@ def test_verdict_as_established(claim_id: str) -> None:
     # hundred small missions of the seed's family per failure): they need the default budget
     v = CLAIMS[claim_id].check(25 if claim_id in DEFAULT_BUDGET_CLAIMS else BUDGET, seed=0)
     assert v.verdict is EXPECTED[claim_id], v.note
-    assert v.instances_checked >= BUDGET or claim_id[0] in "XD"
+    assert v.instances_checked >= BUDGET or claim_id[0] in "XDF"
     if claim_id in STATISTICAL:  # a statistic or an observation: said in words, no example
         assert v.counterexample is None
     else:
