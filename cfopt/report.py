@@ -857,19 +857,25 @@ def _draw_boxes(
     data = [vals for vals, _ in groups if vals]
     if not data:
         return
+    positions = [x for vals, x in groups if vals]
     ax.boxplot(
         data,
-        positions=[x for vals, x in groups if vals],
+        positions=positions,
         widths=width * 0.85,
         patch_artist=True,
         manage_ticks=False,
         boxprops={"facecolor": to_rgba(style.colour, 0.8), "edgecolor": style.edge,
                   "hatch": style.hatch},
-        medianprops={"color": "#000000", "linewidth": 1.8},
+        medianprops={"color": style.edge, "linewidth": 1.8},
         whiskerprops={"color": style.edge},
         capprops={"color": style.edge},
         flierprops={"marker": style.marker, "markersize": 3.5, "markeredgecolor": style.edge,
                     "markerfacecolor": style.colour},
+    )  # fmt: skip
+    # the median as the algorithm's marker: a box of one value (or none) stays readable
+    ax.scatter(
+        positions, [float(np.median(v)) for v in data], marker=style.marker, s=22, zorder=3,
+        facecolors=style.colour, edgecolors="#000000", linewidths=0.6,
     )  # fmt: skip
 
 
