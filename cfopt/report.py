@@ -33,6 +33,7 @@ import csv
 import html
 import math
 import os
+import re
 import shutil
 import tempfile
 import textwrap
@@ -282,6 +283,25 @@ def summary_rows(trials: Sequence[Trial]) -> list[dict[str, Any]]:
     return rows
 
 
+def pooling_warning(trials: Sequence[Trial]) -> str | None:
+    """A warning line when the algorithms of ``trials`` (one load) ran on different
+    numbers of trials -- e.g. trials of two sweeps pooled -- else ``None``.
+
+    >>> from cfopt.store import Trial
+    >>> pooling_warning([])
+    """
+    counts: dict[str, int] = defaultdict(int)
+    for t in trials:
+        counts[t.algorithm] += 1
+    if len(set(counts.values())) < 2:
+        return None
+    listed = ", ".join(f"{a}: {counts[a]}" for a in _algorithms(trials))
+    return (
+        f"warning: the algorithms ran on different numbers of trials ({listed}); their rows "
+        "are not over the same missions (trials of several sweeps pooled?)"
+    )
+
+
 def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]:
     header = [
         "missions",
@@ -289,13 +309,13 @@ def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
         "trials",
         "% of optimum: median (min, max)",
         "optimal",
-        "% of total: median (min, max)",
-        "seconds: median (max)",
-        "work: median (max)",
-        "MB: median (max)",
         "Nash stable",
         "pairwise stable",
         "pareto stable",
+        "% of total: median (min, max)",
+        "seconds: median (max)",
+        "work: median (max)",
+        "communication (MB): median (max)",
     ]
 
     def rng(d: dict[str, float] | None, with_min: bool = True) -> str:
@@ -316,13 +336,13 @@ def _summary_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str]]]
                 str(n),
                 rng(r["percent_optimum"]) + star,
                 f"{r['optimal']}/{n}",
+                f"{r['nash_stable']}/{n}",
+                f"{r['pairwise_stable']}/{n}",
+                f"{r['pareto_stable']}/{n}",
                 rng(r["percent_total"]),
                 rng(r["seconds"], False),
                 rng(r["work"], False),
                 rng(r["megabytes"], False),
-                f"{r['nash_stable']}/{n}",
-                f"{r['pairwise_stable']}/{n}",
-                f"{r['pareto_stable']}/{n}",
             ]
         )
     return header, body
@@ -352,9 +372,12 @@ def cell_table(trials: Sequence[Trial], metric: str | Metric) -> tuple[list[str]
     for key in sorted(cells):
         load, s, k, p, n = key
         row = [f"{load:g}", f"{s}:{k}", f"{p:g}", str(n)]
+        counts = {len(g) for a, g in cells[key].items() if a in algorithms and g}
         for a in algorithms:
             group = cells[key].get(a, [])
             text = format_range(_values(group, m))
+            if len(counts) > 1 and group:
+                text += f" (n={len(group)})"
             if m.name == "percent_optimum" and any(not t.optimum_proven for t in group):
                 text += " †"
             row.append(text)
@@ -558,18 +581,80 @@ def _statistics_table(results: Sequence[TestResult]) -> tuple[list[str], list[li
 
 
 # -------------------------------------------------------------------------- figures
-_COLOURS = {
-    EXACT: "#7f7f7f",
-    "grape-s": "#1f77b4",
-    "pair-grape-s": "#2ca02c",
-    "sda": "#ff7f0e",
-    "rachna-dt": "#d62728",
-}
-_EXTRA_COLOURS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+#: Colour-blind-safe colours, in the order they are given to algorithms: Okabe-Ito's
+#: eight without its black, then Paul Tol's muted scheme.  The exact solve is grey.
+PALETTE = (
+    "#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#F0E442",
+    "#332288", "#88CCEE", "#44AA99", "#117733", "#999933", "#DDCC77", "#CC6677",
+    "#882255", "#AA4499",
+)  # fmt: skip
+EXACT_COLOUR = "#7f7f7f"
+#: Hatches of the algorithms beyond the palette's length (one per round of colours).
+_HATCHES = ("", "xx", "..", "oo", "++", "**")
+#: Hatches of the distributed variants of an algorithm (one per network tag).
+_VARIANT_HATCHES = ("////", "\\\\", "||||", "----")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "h", "*", "p")
 
 
-def _colour(name: str, position: int) -> str:
-    return _COLOURS.get(name, _EXTRA_COLOURS[position % len(_EXTRA_COLOURS)])
+@dataclass(frozen=True)
+class SeriesStyle:
+    """How one algorithm is drawn in every figure: face colour, edge colour, hatch and
+    marker (frozen).  Two series never share ``(colour, hatch)``."""
+
+    colour: str
+    edge: str
+    hatch: str
+    marker: str
+
+
+def _lighter(colour: str, amount: float = 0.5) -> str:
+    """``colour`` (``#rrggbb``) mixed with white: the shade of a distributed variant."""
+    rgb = [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
+    return "#" + "".join(f"{round(c + (255 - c) * amount):02x}" for c in rgb)
+
+
+def _base_name(name: str) -> tuple[str, str]:
+    """``"grape-s (net 2)"`` -> ``("grape-s", "net 2")``; ``"sda"`` -> ``("sda", "")``."""
+    base, sep, tag = name.partition(" (")
+    return (base, tag.rstrip(")")) if sep else (name, "")
+
+
+def algorithm_styles(names: Iterable[str] = ()) -> dict[str, SeriesStyle]:
+    """The style of every algorithm, the same in every figure of every report.
+
+    Each base algorithm gets a colour of :data:`PALETTE` (and a marker) by its place in
+    the registry (:data:`heuristics.registry.ALGORITHMS`, in registration order: cfopt's
+    algorithms first, a user's after), names not registered after those, sorted; past
+    the palette's length the colours repeat with a hatch.  A distributed variant
+    (``"grape-s (distributed)"``, ``"grape-s (net 2)"``) is a lighter shade of its
+    algorithm's colour with a hatch of its own.  Returns the registered algorithms, the
+    exact solve and every name in ``names``.
+
+    >>> styles = algorithm_styles(["grape-s (distributed)"])
+    >>> styles["grape-s"].colour, styles["grape-s (distributed)"].hatch
+    ('#0072B2', '////')
+    """
+    from heuristics.registry import ALGORITHMS
+
+    names = list(names)
+    registered = [a for a in ALGORITHMS if a != EXACT]
+    bases = registered + sorted({_base_name(n)[0] for n in names} - {EXACT, *registered})
+    styles = {EXACT: SeriesStyle(EXACT_COLOUR, EXACT_COLOUR, "", "o")}
+    for i, base in enumerate(bases):
+        colour = PALETTE[i % len(PALETTE)]
+        hatch = _HATCHES[(i // len(PALETTE)) % len(_HATCHES)]
+        styles[base] = SeriesStyle(colour, colour, hatch, _MARKERS[i % len(_MARKERS)])
+    tags: dict[str, list[str]] = defaultdict(list)
+    for name in sorted(set(names)):
+        base, tag = _base_name(name)
+        if tag and name not in styles:
+            tags[base].append(name)
+    for base, variants in tags.items():
+        own = styles.get(base, styles[EXACT])
+        for k, name in enumerate(variants):
+            hatch = own.hatch + _VARIANT_HATCHES[k % len(_VARIANT_HATCHES)]
+            styles[name] = SeriesStyle(_lighter(own.colour), own.edge, hatch, own.marker)
+    return styles
 
 
 def _figure_name(metric: str, load: float) -> str:
@@ -603,7 +688,7 @@ def figure_names_for(cells: Iterable[Any]) -> list[str]:
     flagged = (
         (load, any(c.network is not None for c in cells if c.load == load)) for load in loads
     )
-    return [f for _, _, f in _figures(flagged)]
+    return [HEADLINE_FIGURE, *(f for _, _, f in _figures(flagged))]
 
 
 def report_names_for(cells: Iterable[Any], claims: bool = False) -> list[str]:
@@ -632,111 +717,183 @@ def _percent_axis(ax: Any, values: Sequence[float]) -> None:
     ax.set_yticks(ticks)
 
 
-def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> list[Path]:
-    """Box plots like the seed's Figures 1-4, one PNG per metric and load.
+#: The report's headline figure: percent of optimum by algorithm and load.
+HEADLINE_FIGURE = "fig_headline_percent_optimum.png"
 
-    Each figure has one panel per composition (``S:k``); in a panel the x axis groups
-    the cells by collective size and percent tasks, and every algorithm has its box in
-    each group.  Runtime and communication use a log scale.  Files are written to
-    ``directory`` (which must exist), replacing files of the same name; returns the paths.
+
+def box_plots(trials: Sequence[Trial], directory: str | os.PathLike[str]) -> list[Path]:
+    """Write every figure of :func:`figures` as a PNG into ``directory`` (which must
+    exist), replacing files of the same name; returns the paths.  Legends are kept whole
+    (``bbox_inches="tight"``)."""
+    import matplotlib.pyplot as plt
+
+    directory = Path(directory)
+    written = []
+    for filename, fig in figures(trials):
+        path = directory / filename
+        fig.savefig(path, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def figures(trials: Sequence[Trial]) -> Iterator[tuple[str, Any]]:
+    """Every figure of the report, as ``(file name, matplotlib Figure)``, drawn (Agg)
+    and not saved.
+
+    First the headline (:data:`HEADLINE_FIGURE`: percent of optimum per algorithm and
+    load, all cells pooled), then box plots like the seed's Figures 1-4, one per metric
+    and load: one panel per composition (``S:k``), the x axis grouping the cells by
+    collective size and percent tasks, every algorithm with its box in each group.
+    Runtime and communication use a log scale.  Every algorithm has the style
+    :func:`algorithm_styles` gives it, and a labelled legend entry.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    directory = Path(directory)
-    written = []
+    styles = algorithm_styles(t.algorithm for t in trials)
+    yield HEADLINE_FIGURE, _headline(plt, trials, styles)
     for metric_name, load, filename in _figure_names(trials):
-        metric = METRICS[metric_name]
-        at_load = [t for t in trials if t.load == load]
-        algorithms = [
-            a for a in _algorithms(at_load) if not (metric.heuristics_only and a == EXACT)
-        ]
-        comps = sorted({(t.service_types, t.services_per_robot) for t in at_load})
-        ncols = 2 if len(comps) > 1 else 1
-        nrows = math.ceil(len(comps) / ncols)
-        fig, axes = plt.subplots(
-            nrows,
-            ncols,
-            figsize=(6.4 * ncols, 3.4 * nrows + 1.0),
-            squeeze=False,
-            layout="constrained",
-        )
-        for ax in axes.ravel()[len(comps) :]:
-            ax.set_visible(False)
-        width = 0.8 / max(len(algorithms), 1)
-        for panel, ((s, k), ax) in enumerate(zip(comps, axes.ravel(), strict=False)):
-            mine = [t for t in at_load if (t.service_types, t.services_per_robot) == (s, k)]
-            xs = sorted({(t.percent_tasks, t.robots) for t in mine})
-            panel_values: list[float] = []
-            for a_pos, algorithm in enumerate(algorithms):
-                data, positions = [], []
-                for x_pos, (p, n) in enumerate(xs):
-                    vals = _values(
-                        (
-                            t
-                            for t in mine
-                            if t.algorithm == algorithm and (t.percent_tasks, t.robots) == (p, n)
-                        ),
-                        metric,
-                    )
-                    if metric.log_scale:
-                        vals = [max(v, 1e-6) for v in vals]
-                    panel_values += vals
-                    if vals:
-                        data.append(vals)
-                        positions.append(x_pos + (a_pos - (len(algorithms) - 1) / 2) * width)
-                if not data:
-                    continue
-                colour = _colour(algorithm, a_pos)
-                ax.boxplot(
-                    data,
-                    positions=positions,
-                    widths=width * 0.85,
-                    patch_artist=True,
-                    manage_ticks=False,
-                    boxprops={"facecolor": colour, "alpha": 0.55, "edgecolor": colour},
-                    medianprops={"color": colour, "linewidth": 2.2},
-                    whiskerprops={"color": colour},
-                    capprops={"color": colour},
-                    flierprops={"marker": ".", "markersize": 4, "markeredgecolor": colour},
+        yield filename, _metric_figure(plt, trials, METRICS[metric_name], load, styles)
+
+
+def _headline(plt: Any, trials: Sequence[Trial], styles: dict[str, SeriesStyle]) -> Any:
+    """Percent of optimum by algorithm (boxes) and load (groups)."""
+    metric = METRICS["percent_optimum"]
+    algorithms = [a for a in _algorithms(trials) if a != EXACT]
+    loads = sorted({t.load for t in trials})
+    fig, ax = plt.subplots(
+        figsize=(max(6.4, 1.6 * len(loads) + 0.35 * len(algorithms)), 4.2), layout="constrained"
+    )
+    width = 0.8 / max(len(algorithms), 1)
+    values: list[float] = []
+    for a_pos, algorithm in enumerate(algorithms):
+        groups = []
+        for x_pos, load in enumerate(loads):
+            vals = _values(
+                (t for t in trials if t.algorithm == algorithm and t.load == load), metric
+            )
+            values += vals
+            groups.append((vals, x_pos + (a_pos - (len(algorithms) - 1) / 2) * width))
+        _draw_boxes(ax, groups, styles[algorithm], width)
+    if values:
+        _percent_axis(ax, values)
+    ax.set_xticks(range(len(loads)))
+    ax.set_xticklabels([_load_label(load) for load in loads], fontsize=9)
+    ax.set_xlim(-0.6, len(loads) - 0.4)
+    ax.set_ylabel(f"{metric.label} ({metric.unit})", fontsize=9)
+    ax.grid(axis="y", alpha=0.3)
+    ax.set_title("Percent of optimum by algorithm and load (all cells)", fontsize=11)
+    _legend(fig, plt, algorithms, styles)
+    return fig
+
+
+def _metric_figure(
+    plt: Any, trials: Sequence[Trial], metric: Metric, load: float, styles: dict[str, SeriesStyle]
+) -> Any:
+    """One metric at one load: a panel per composition."""
+    at_load = [t for t in trials if t.load == load]
+    algorithms = [a for a in _algorithms(at_load) if not (metric.heuristics_only and a == EXACT)]
+    comps = sorted({(t.service_types, t.services_per_robot) for t in at_load})
+    ncols = 2 if len(comps) > 1 else 1
+    nrows = math.ceil(len(comps) / ncols)
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(6.4 * ncols, 3.4 * nrows + 1.0), squeeze=False,
+        layout="constrained",
+    )  # fmt: skip
+    for ax in axes.ravel()[len(comps) :]:
+        ax.set_visible(False)
+    width = 0.8 / max(len(algorithms), 1)
+    for panel, ((s, k), ax) in enumerate(zip(comps, axes.ravel(), strict=False)):
+        mine = [t for t in at_load if (t.service_types, t.services_per_robot) == (s, k)]
+        xs = sorted({(t.percent_tasks, t.robots) for t in mine})
+        panel_values: list[float] = []
+        for a_pos, algorithm in enumerate(algorithms):
+            groups = []
+            for x_pos, (p, n) in enumerate(xs):
+                chosen = (
+                    t
+                    for t in mine
+                    if t.algorithm == algorithm and (t.percent_tasks, t.robots) == (p, n)
                 )
-            if metric.unit == "%" and panel_values:
-                _percent_axis(ax, panel_values)
-            ax.set_xticks(range(len(xs)))
-            ax.set_xticklabels([f"n={n}\n{p:g}% tasks" for p, n in xs], fontsize=8)
-            ax.set_xlim(-0.6, len(xs) - 0.4)
-            if metric.log_scale:
-                ax.set_yscale("log")
-            ax.set_ylabel(f"{metric.label} ({metric.unit})", fontsize=9)
-            ax.set_title(
-                f"({chr(ord('a') + panel)}) {s} service types, {k} "
-                f"service{'s' if k != 1 else ''} per robot",
-                fontsize=10,
-            )
-            ax.grid(axis="y", alpha=0.3)
-            ax.tick_params(axis="y", labelsize=8)
-            for x_pos in range(1, len(xs)):
-                ax.axvline(x_pos - 0.5, color="#dddddd", linewidth=0.8)
-        handles = [
-            plt.Rectangle(
-                (0, 0), 1, 1, facecolor=_colour(a, i), alpha=0.55, edgecolor=_colour(a, i)
-            )
-            for i, a in enumerate(algorithms)
-        ]
-        fig.legend(
-            handles, algorithms, loc="outside lower center", ncol=len(algorithms), frameon=False
+                vals = _values(chosen, metric)
+                if metric.log_scale:
+                    vals = [max(v, 1e-6) for v in vals]
+                panel_values += vals
+                groups.append((vals, x_pos + (a_pos - (len(algorithms) - 1) / 2) * width))
+            _draw_boxes(ax, groups, styles[algorithm], width)
+        if metric.unit == "%" and panel_values:
+            _percent_axis(ax, panel_values)
+        ax.set_xticks(range(len(xs)))
+        ax.set_xticklabels([f"n={n}\n{p:g}% tasks" for p, n in xs], fontsize=8)
+        ax.set_xlim(-0.6, len(xs) - 0.4)
+        if metric.log_scale:
+            ax.set_yscale("log")
+        ax.set_ylabel(f"{metric.label} ({metric.unit})", fontsize=9)
+        ax.set_title(
+            f"({chr(ord('a') + panel)}) {s} service types, {k} "
+            f"service{'s' if k != 1 else ''} per robot",
+            fontsize=10,
         )
-        fig.suptitle(
-            f"{metric.label} by collective size and percent tasks, {_load_label(load)}",
-            fontsize=11,
+        ax.grid(axis="y", alpha=0.3)
+        ax.tick_params(axis="y", labelsize=8)
+        for x_pos in range(1, len(xs)):
+            ax.axvline(x_pos - 0.5, color="#dddddd", linewidth=0.8)
+    _legend(fig, plt, algorithms, styles)
+    fig.suptitle(
+        f"{metric.label} by collective size and percent tasks, {_load_label(load)}", fontsize=11
+    )
+    return fig
+
+
+def _draw_boxes(
+    ax: Any, groups: Sequence[tuple[list[float], float]], style: SeriesStyle, width: float
+) -> None:
+    """One algorithm's boxes at the given x positions (groups without values are skipped)."""
+    from matplotlib.colors import to_rgba
+
+    data = [vals for vals, _ in groups if vals]
+    if not data:
+        return
+    positions = [x for vals, x in groups if vals]
+    ax.boxplot(
+        data,
+        positions=positions,
+        widths=width * 0.85,
+        patch_artist=True,
+        manage_ticks=False,
+        boxprops={"facecolor": to_rgba(style.colour, 0.8), "edgecolor": style.edge,
+                  "hatch": style.hatch},
+        medianprops={"color": style.edge, "linewidth": 1.8},
+        whiskerprops={"color": style.edge},
+        capprops={"color": style.edge},
+        flierprops={"marker": style.marker, "markersize": 3.5, "markeredgecolor": style.edge,
+                    "markerfacecolor": style.colour},
+    )  # fmt: skip
+    # the median as the algorithm's marker: a box of one value (or none) stays readable
+    ax.scatter(
+        positions, [float(np.median(v)) for v in data], marker=style.marker, s=22, zorder=3,
+        facecolors=style.colour, edgecolors="#000000", linewidths=0.6,
+    )  # fmt: skip
+
+
+def _legend(fig: Any, plt: Any, algorithms: Sequence[str], styles: dict[str, SeriesStyle]) -> None:
+    """A legend entry per algorithm, below the axes, in rows of at most four."""
+    from matplotlib.colors import to_rgba
+
+    handles = [
+        plt.Rectangle(
+            (0, 0), 1, 1, facecolor=to_rgba(styles[a].colour, 0.8), edgecolor=styles[a].edge,
+            hatch=styles[a].hatch, label=a,
         )
-        path = directory / filename
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
-    return written
+        for a in algorithms
+    ]  # fmt: skip
+    fig.legend(
+        handles=handles, labels=list(algorithms), loc="outside lower center",
+        ncol=min(len(algorithms), 4), frameon=False, fontsize=8,
+    )  # fmt: skip
 
 
 # ------------------------------------------------------------------ the report itself
@@ -791,7 +948,8 @@ def summary_text(trials: Sequence[Trial]) -> str:
     header = ["algorithm", "% of optimum", "optimal", "seconds", "MB"]
     header.append("Nash/strict/pareto")
     legend = (
-        "Cells: median (min, max) over the trials; seconds and MB: median; Nash/strict/pareto: "
+        "Cells: median (min, max) over the trials; seconds and MB (communication): median; "
+        "Nash/strict/pareto: "
         "trials whose final partition is Nash / strictly pairwise / pareto pairwise stable."
     )
     parts = [textwrap.fill(legend, width=100)]
@@ -811,7 +969,11 @@ def summary_text(trials: Sequence[Trial]) -> str:
                 ]
             )
         heading = f"{_load_label(load)}: {plural(len(missions_at[load]), 'mission')}"
-        parts.append(heading + "\n" + format_table(header, body))
+        warning = pooling_warning([t for t in trials if t.load == load])
+        table = format_table(header, body)
+        parts.append(
+            heading + "\n" + table + ("" if warning is None else "\n" + textwrap.fill(warning, 100))
+        )
     tags = network_tags(trials)
     if tags:
         listed = "; ".join(f"{tag}: {spec}" for spec, tag in tags.items())
@@ -842,11 +1004,17 @@ def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 
 
 def _html_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """A table in a wrapper that scrolls sideways only if it cannot fit; a verdict cell
+    is coloured by its verdict."""
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows
-    )
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+    def cell(c: str) -> str:
+        css = f' class="{c}"' if c in _VERDICT_CLASSES else ""
+        return f"<td{css}>{_inline(c)}</td>"
+
+    body = "".join("<tr>" + "".join(cell(str(c)) for c in r) + "</tr>" for r in rows)
+    table = f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    return f'<div class="wrap">{table}</div>'
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]], mode: str) -> None:
@@ -856,26 +1024,131 @@ def _write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]],
         writer.writerows(rows)
 
 
-def _claims_table(claims: Sequence[Any]) -> tuple[list[str], list[list[str]]]:
+_VERDICT_ORDER = {"fails": 0, "inconclusive": 1, "holds": 2}
+
+
+def plain_markup(text: str) -> str:
+    """A claim's text with its Sphinx roles as plain code and its whitespace folded.
+
+    >>> plain_markup("as :func:`heuristics.sda` and ``n^3``\\n says")
+    'as `heuristics.sda` and `n^3` says'
+    """
+    text = re.sub(r":[\w.:-]+:`~?([^`]+)`", r"`\1`", str(text))
+    return " ".join(text.replace("``", "`").split())
+
+
+def claim_sources(claim_ids: Iterable[str]) -> dict[str, str]:
+    """Whose claim each id is: ``"seed paper"``, ``"cfopt"``, or ``"yours"`` (a claim
+    of an installed package says its module: ``"yours (mypkg.claims)"``)."""
+    from proofs.claims import claim_origin
+    from proofs.claims_cfopt import cfopt_claims
+    from proofs.claims_distributed import distributed_claims
+    from proofs.claims_seed import seed_claims
+
+    seed = {c.id for c in (*seed_claims(), *distributed_claims())}
+    own = {c.id for c in cfopt_claims()}
+    out = {}
+    for claim_id in claim_ids:
+        if claim_id in seed:
+            out[claim_id] = "seed paper"
+        elif claim_id in own:
+            out[claim_id] = "cfopt"
+        else:
+            origin = claim_origin(claim_id)
+            out[claim_id] = f"yours ({origin})" if origin else "yours"
+    return out
+
+
+def replay_commands(verdict: Any, files: Sequence[str]) -> list[str]:
+    """The commands that replay a counterexample from its files (paths as given)."""
+    mission = next((f for f in files if f.endswith(".mission.json")), None)
+    assignment = next((f for f in files if f.endswith(".assignment.json")), None)
+    ce = verdict.counterexample
+    if ce is None or mission is None or assignment is None:
+        return []
+    lines = [f"cfopt check {mission} {assignment}"]
+    if ce.algorithm:
+        network = next((f for f in files if f.endswith(".network.json")), None)
+        run = f"cfopt run {ce.algorithm} {mission}"
+        if network is not None:
+            run += f" --network {network}" + ("" if ce.seed is None else f" --seed {ce.seed}")
+        lines.append(run)
+    return lines
+
+
+def _claim_files(claim_id: str, claim_files: Sequence[str]) -> list[str]:
+    kinds = ("mission.json", "assignment.json", "network.json")
+    return [f for f in claim_files if Path(f).name in {f"{claim_id}.{k}" for k in kinds}]
+
+
+def _claims_table(
+    claims: Sequence[Any], claim_files: Sequence[str] = (), *, links: bool = False
+) -> tuple[list[str], list[list[str]]]:
+    """The claims, failures first: id, whose, verdict, scope, the counterexample's
+    violation, its files with the replay commands, statement and note.  ``links``: the
+    files as Markdown links and the commands as code (the report), else plain (CSV)."""
     header = [
-        "id", "verdict", "scope", "missions", "counterexample", "seconds", "statement", "note",
+        "id", "verdict", "scope", "source", "missions", "counterexample", "violation",
+        "replay", "seconds", "statement", "note",
     ]  # fmt: skip
+    sources = claim_sources(v.claim_id for v in claims)
     rows = []
-    for v in claims:
+    for v in sorted(claims, key=lambda v: _VERDICT_ORDER.get(v.verdict.value, 1)):
         ce = v.counterexample
+        files = _claim_files(v.claim_id, claim_files)
+        commands = replay_commands(v, files)
+        if links:
+            shown = [f"[{Path(f).name}]({Path(f).as_posix()})" for f in files]
+            replay = " ".join(shown + [f"`{c}`" for c in commands])
+        else:
+            replay = "; ".join(commands)
         rows.append(
             [
                 v.claim_id,
                 v.verdict.value,
                 v.scope_text,
+                sources[v.claim_id],
                 str(v.instances_checked),
                 "-" if ce is None else "{} robots, {} tasks, {} services".format(*ce.size),
+                "-" if ce is None else plain_markup(ce.detail) or "-",
+                replay or "-",
                 f"{v.seconds:.1f}",
-                " ".join(v.statement.split()),
-                " ".join(str(v.note).split()),
+                plain_markup(v.statement),
+                plain_markup(v.note),
             ]
         )
     return header, rows
+
+
+def _claims_blocks(claims: Sequence[Any], claim_files: Sequence[str]) -> list[tuple[str, Any]]:
+    """The report's first section: the verdicts, failures first."""
+    header, rows = _claims_table(claims, claim_files, links=True)
+    keep = [h for h in header if h not in ("missions", "counterexample", "seconds")]
+    index = [header.index(h) for h in keep]
+    table = (keep, [[r[i] for i in index] for r in rows])
+    counts = defaultdict(int)
+    for v in claims:
+        counts[v.verdict.value] += 1
+    sources = claim_sources(v.claim_id for v in claims)
+    whose = defaultdict(list)
+    for claim_id, source in sources.items():
+        whose[source.split(" (")[0]].append(claim_id)
+    said = "; ".join(
+        f"{', '.join(ids)} {'are' if len(ids) > 1 else 'is'} "
+        + {"seed paper": "the seed paper's", "cfopt": "cfopt's own", "yours": "yours"}[src]
+        for src, ids in whose.items()
+    )
+    tally = ", ".join(f"{counts[k]} {k}" for k in _VERDICT_ORDER if counts[k])
+    return [
+        ("h2", "Claims: verdicts"),
+        ("p", f"{plural(len(claims), 'claim')} checked: {tally}. Whose: {said}."),
+        ("table", table),
+        (
+            "p",
+            "Violation: what the counterexample violates, in words. Replay: the "
+            "counterexample's files (beside this report) and the commands that show it.",
+        ),
+    ]
 
 
 def gap_report(trials: Sequence[Trial], version: str = "") -> dict[str, Any]:
@@ -939,7 +1212,8 @@ def _report_files(distributed: bool) -> list[str]:
 def planned_files(trials: Sequence[Trial], claims: Sequence[Any] | None = None) -> list[str]:
     """Names :func:`write_report` writes into its directory for these trials."""
     distributed = any(t.network is not None for t in trials)
-    names = _report_files(distributed) + [f for _, _, f in _figure_names(trials)]
+    names = [*_report_files(distributed), HEADLINE_FIGURE]
+    names += [f for _, _, f in _figure_names(trials)]
     if claims is not None:
         names.append("claims.csv")
     return names
@@ -1016,8 +1290,8 @@ def write_report(
     created = make_directory(directory)
     with _staging(directory, created) as stage:
         _write_files(
-            trials, stage, version=version, claims=claims, claim_files=claim_files,
-            source=source, title=title,
+            trials, stage, version=version, claims=claims, source=source, title=title,
+            claim_files=[os.path.relpath(p, directory) for p in claim_files],
         )  # fmt: skip
         _publish(stage, directory, names, force)
     return Report(
@@ -1076,7 +1350,7 @@ def _write_files(
     *,
     version: str,
     claims: Sequence[Any] | None,
-    claim_files: Sequence[Path],
+    claim_files: Sequence[str],
     source: str,
     title: str,
 ) -> None:
@@ -1098,7 +1372,7 @@ def _write_files(
     for name, (header, rows) in tables.items():
         _write_csv(directory / f"table_{name}.csv", header, rows, mode)
     if claims is not None:
-        _write_csv(directory / "claims.csv", *_claims_table(claims), mode)
+        _write_csv(directory / "claims.csv", *_claims_table(claims, claim_files), mode)
     if distributed:
         _write_csv(directory / "distributed.csv", *distributed_table(trials), mode)
     box_plots(trials, directory)
@@ -1123,32 +1397,14 @@ def _write_files(
         ),
     ]
     blocks.append(("p", " ".join(facts)))
-    blocks += [("h2", "Summary"), ("table", _summary_table(trials))]
-    blocks.append(
-        (
-            "p",
-            "Optimal: trials that reached the optimum. Stability: Nash, strict pairwise and "
-            "pareto pairwise stability of the final partition by the independent checkers of "
-            "`proofs` (under the seed's reward strict pairwise stability coincides with Nash "
-            "stability; pareto is the informative pairwise notion); an exact optimum need "
-            "not be stable. MB: total communication under each "
-            "algorithm's documented message model.",
-        )
-    )
+    if claims is not None:
+        blocks += _claims_blocks(claims, claim_files)
+    caption = "Percent of optimum by algorithm and load"
+    blocks += [("h2", caption), ("img", (directory / HEADLINE_FIGURE, caption))]
+    blocks += _summary_blocks(trials)
     if distributed:
         blocks += _distributed_blocks(trials)
     if claims is not None:
-        blocks += [("h2", "Claims of the seed paper"), ("table", _claims_table(claims))]
-        if claim_files:
-            listed = ", ".join(f"`{p.name}`" for p in claim_files)
-            blocks.append(
-                (
-                    "p",
-                    "Counterexamples (replay with `cfopt check MISSION ASSIGNMENT` and "
-                    f"`cfopt run ALGORITHM MISSION`): {listed} in "
-                    f"`{claim_files[0].parent.as_posix()}`.",
-                )
-            )
         blocks += _profile_blocks(claims)
     figure_of = {(m, load): directory / f for m, load, f in _figure_names(trials)}
     for name in tables:
@@ -1186,7 +1442,7 @@ def distributed_table(trials: Sequence[Trial]) -> tuple[list[str], list[list[str
     header = [
         "algorithm", "service types", "per robot", "% tasks", "robots", "load",
         "% of optimum: median (min, max)", "optimal", "converged", "beliefs agree", "cut",
-        "simulated s: median (max)", "MB: median (max)",
+        "simulated s: median (max)", "communication (MB): median (max)",
     ]  # fmt: skip
     groups: dict[tuple[Any, ...], list[Trial]] = defaultdict(list)
     for t in trials:
@@ -1219,6 +1475,32 @@ def format_median_max(values: Sequence[float]) -> str:
     '2 (10)'
     """
     return "-" if not values else f"{_fmt(float(np.median(values)))} ({_fmt(max(values))})"
+
+
+def _summary_blocks(trials: Sequence[Trial]) -> list[tuple[str, Any]]:
+    """The summary: a table per load, each with its pooling warning."""
+    blocks: list[tuple[str, Any]] = [("h2", "Summary")]
+    for load in sorted({t.load for t in trials}):
+        at_load = [t for t in trials if t.load == load]
+        header, rows = _summary_table(at_load)
+        missions = len({(t.cell, t.mission_seed) for t in at_load})
+        blocks += [("h3", f"{_load_label(load)}: {plural(missions, 'mission')}")]
+        warning = pooling_warning(at_load)
+        if warning is not None:
+            blocks.append(("warning", warning))
+        blocks.append(("table", (header[1:], [r[1:] for r in rows])))
+    blocks.append(
+        (
+            "p",
+            "Trials: n per algorithm. Optimal: trials that reached the optimum. Stability: "
+            "Nash, strict pairwise and pareto pairwise stability of the final partition by the "
+            "independent checkers of `proofs` (under the seed's reward strict pairwise "
+            "stability coincides with Nash stability; pareto is the informative pairwise "
+            "notion); an exact optimum need not be stable. Communication (MB, 10^6 bytes): "
+            "total communication under each algorithm's documented message model.",
+        )
+    )
+    return blocks
 
 
 def _profile_blocks(claims: Sequence[Any]) -> list[tuple[str, Any]]:
@@ -1254,11 +1536,17 @@ def _distributed_blocks(trials: Sequence[Trial]) -> list[tuple[str, Any]]:
 
 
 _CSS = (
-    "body{font-family:system-ui,sans-serif;margin:2em auto;max-width:90em;padding:0 1em;"
-    "color:#222}table{border-collapse:collapse;margin:1em 0;font-size:.85em}"
-    "th,td{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}"
-    "th{background:#f3f3f3}img{max-width:100%;border:1px solid #eee}code{background:#f6f6f6}"
+    "body{font-family:system-ui,sans-serif;margin:1.5em auto;max-width:110em;padding:0 1em;"
+    "color:#222}.wrap{overflow-x:auto;max-width:100%}"
+    "table{border-collapse:collapse;margin:1em 0;font-size:.8em;width:100%}"
+    "th,td{border:1px solid #ccc;padding:.2em .4em;text-align:left;vertical-align:top;"
+    "overflow-wrap:anywhere}th{background:#f3f3f3}"
+    "img{max-width:100%;border:1px solid #eee}code{background:#f6f6f6;overflow-wrap:anywhere}"
+    ".warning{color:#8a4b00;font-weight:bold}.fails{background:#fde2e2;font-weight:bold}"
+    ".inconclusive{background:#fff4d6}.holds{background:#e3f4e6}"
 )
+_LINK = re.compile(r"\[([^\]]+)\]\(([^)\s]+)\)")
+_VERDICT_CLASSES = frozenset(_VERDICT_ORDER)
 
 
 def _render(blocks: Sequence[tuple[str, Any]], directory: Path, title: str) -> tuple[str, str]:
@@ -1266,16 +1554,17 @@ def _render(blocks: Sequence[tuple[str, Any]], directory: Path, title: str) -> t
     page: list[str] = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
     ]
     for kind, content in blocks:
-        if kind in ("h1", "h2"):
-            level = "#" if kind == "h1" else "##"
-            md.append(f"{level} {content}\n")
+        if kind in ("h1", "h2", "h3"):
+            md.append(f"{'#' * int(kind[1])} {content}\n")
             page.append(f"<{kind}>{html.escape(content)}</{kind}>")
-        elif kind == "p":
-            md.append(f"{content}\n")
-            page.append(f"<p>{_inline_code(html.escape(content))}</p>")
+        elif kind in ("p", "warning"):
+            md.append(f"**{content}**\n" if kind == "warning" else f"{content}\n")
+            css = ' class="warning"' if kind == "warning" else ""
+            page.append(f"<p{css}>{_inline(content)}</p>")
         elif kind == "table":
             md.append(_md_table(*content) + "\n")
             page.append(_html_table(*content))
@@ -1289,6 +1578,12 @@ def _render(blocks: Sequence[tuple[str, Any]], directory: Path, title: str) -> t
             )
     page.append("</body></html>")
     return "\n".join(md), "\n".join(page) + "\n"
+
+
+def _inline(text: str) -> str:
+    """Markdown's inline code and links as HTML (the rest escaped)."""
+    escaped = _LINK.sub(r'<a href="\2">\1</a>', html.escape(str(text), quote=True))
+    return _inline_code(escaped)
 
 
 def _inline_code(text: str) -> str:

@@ -73,7 +73,8 @@ def test_quick_audit_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFix
     cx = folder / "counterexamples"
     assert sorted(p.name for p in cx.iterdir()) == ["F1.assignment.json", "F1.mission.json"]
     markdown = (folder / "report.md").read_text(encoding="utf-8")
-    assert "## Claims of the seed paper" in markdown and "| F1 | fails |" in markdown
+    assert "## Claims: verdicts" in markdown and "| F1 | fails |" in markdown
+    assert "Claims of the seed paper" not in markdown  # F1, H1 are the test's own claims
     # the scope beside the verdict, in the terminal table, the report and claims.csv
     assert "paper's sizes, sim: seed" in out
     assert "| H1 | holds | at the paper's sizes, on cfopt's simulator under network `seed` |" in (

@@ -198,7 +198,8 @@ def test_report_files(written) -> None:
     names = {p.name for p in report.files}
     assert {"report.md", "report.html", "trials.csv", "summary.csv", "statistics.csv"} <= names
     pngs = sorted(out.glob("*.png"))
-    assert len(pngs) == 8  # 4 metrics (percent, seconds, work, MB) x 2 loads
+    assert len(pngs) == 9  # the headline, then 4 metrics (percent, seconds, work, MB) x 2 loads
+    assert (out / "fig_headline_percent_optimum.png") in pngs
     assert (out / "fig_work_load1.png") in pngs  # machine-independent runtime beside wall time
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
     markdown = (out / "report.md").read_text(encoding="utf-8")
@@ -208,7 +209,7 @@ def test_report_files(written) -> None:
     for png in pngs:
         assert f"]({png.name})" in markdown
     page = (out / "report.html").read_text(encoding="utf-8")
-    assert page.count("data:image/png;base64,") == 8
+    assert page.count("data:image/png;base64,") == 9
     assert 'src="http' not in page and "<table>" in page
     with (out / "trials.csv").open(encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
