@@ -1043,10 +1043,11 @@ def claim_sources(claim_ids: Iterable[str]) -> dict[str, str]:
     from proofs.claims import claim_origin
     from proofs.claims_cfopt import cfopt_claims
     from proofs.claims_distributed import distributed_claims
+    from proofs.claims_dynamic import dynamic_claims
     from proofs.claims_seed import seed_claims
 
     seed = {c.id for c in (*seed_claims(), *distributed_claims())}
-    own = {c.id for c in cfopt_claims()}
+    own = {c.id for c in (*cfopt_claims(), *dynamic_claims())}
     out = {}
     for claim_id in claim_ids:
         if claim_id in seed:
@@ -1540,7 +1541,9 @@ _CSS = (
     "color:#222}.wrap{overflow-x:auto;max-width:100%}"
     "table{border-collapse:collapse;margin:1em 0;font-size:.8em;width:100%}"
     "th,td{border:1px solid #ccc;padding:.2em .4em;text-align:left;vertical-align:top;"
-    "overflow-wrap:anywhere}th{background:#f3f3f3}"
+    # long paths and commands break anywhere, but no column narrower than a short word
+    # (an id, a verdict), so a narrow window never spells one letter per line
+    "overflow-wrap:anywhere;min-width:5.5em}th{background:#f3f3f3}"
     "img{max-width:100%;border:1px solid #eee}code{background:#f6f6f6;overflow-wrap:anywhere}"
     ".warning{color:#8a4b00;font-weight:bold}.fails{background:#fde2e2;font-weight:bold}"
     ".inconclusive{background:#fff4d6}.holds{background:#e3f4e6}"
