@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pytest
 
+import heuristics
 from cfopt import GridCell
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -243,7 +244,8 @@ def test_a_new_spec_version_is_computed_again(site: Path, tmp_path: Path) -> Non
     again = json.loads(ok(cfopt(*argv, cwd=tmp_path, site=site, MYPKG_VERSION="2")).stdout)
     assert (again["completed"], again["skipped"]) == (4, 8)  # only first-slot's trials
     versions = sorted({(r[0], r[1]) for r in _trials(tmp_path / "v.sqlite")})
-    assert versions == [("exact", ""), ("first-slot", "1"), ("first-slot", "2"), ("grape-s", "1")]
+    shipped = ("grape-s", heuristics.ALGORITHMS["grape-s"].version)  # untouched by the user's
+    assert versions == [("exact", ""), ("first-slot", "1"), ("first-slot", "2"), shipped]
     ok(cfopt("report", "v.sqlite", "-o", "r", cwd=tmp_path, site=site))
     csv = (tmp_path / "r" / "summary.csv").read_text(encoding="utf-8")
     assert csv.count("first-slot") == 1  # the report reads version 2 only, not both
