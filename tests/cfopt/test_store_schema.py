@@ -100,7 +100,8 @@ def test_round_trip(tmp_path: Path, trials) -> None:
 @pytest.mark.parametrize("version", ["4", "3", "2"])
 def test_older_stores_are_upgraded_in_place(tmp_path: Path, trials, version) -> None:
     path = tmp_path / "old.sqlite"
-    old = [trials["grape-s"]]
+    # a store from before schema 5 holds trials of each engine's first version
+    old = [dataclasses.replace(trials["grape-s"], algorithm_version="1")]
     if version in ("3", "2"):  # no communication column
         old = [dataclasses.replace(old[0], communication=None)]
     if version == "2":  # a schema-2 store has no distributed columns: they read as None
@@ -114,14 +115,15 @@ def test_older_stores_are_upgraded_in_place(tmp_path: Path, trials, version) -> 
     with ResultStore(path) as store:
         assert store.trials() == old
         assert store.add(trials["sda"])
-        assert not store.add(trials["grape-s"])  # same key: the stored one stays
+        assert not store.add(old[0])  # same key: the stored one stays
     assert _version(path) == "5"
     with contextlib.closing(sqlite3.connect(path)) as db:
         columns = {r[1] for r in db.execute("PRAGMA table_info(trials)")}
     assert set(_TRIAL_FIELDS) <= columns
     with ResultStore(path, create=False) as store:
-        back = {t.algorithm: t for t in store.trials()}
-    assert back == {"grape-s": old[0], "sda": trials["sda"]}
+        back = {(t.algorithm, t.algorithm_version): t for t in store.trials()}
+    sda = trials["sda"]
+    assert back == {("grape-s", "1"): old[0], ("sda", sda.algorithm_version): sda}
 
 
 @pytest.mark.parametrize(
