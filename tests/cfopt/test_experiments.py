@@ -185,7 +185,7 @@ def test_killed_sweep_resumes_with_one_row_per_trial(tmp_path: Path) -> None:
     proc = subprocess.Popen(
         command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
     )
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 600  # a hang guard: wait for the state
     while _count(store) < 15 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)  # the parent and its workers, mid-way
@@ -194,7 +194,7 @@ def test_killed_sweep_resumes_with_one_row_per_trial(tmp_path: Path) -> None:
     stored = _count(store)
     assert 15 <= stored < total, "the sweep must be killed mid-way"
 
-    resumed = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    resumed = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert resumed.returncode == 0, resumed.stderr
     summary = json.loads(resumed.stdout)
     assert summary["skipped"] == stored and summary["completed"] == total - stored
