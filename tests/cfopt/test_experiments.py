@@ -197,7 +197,8 @@ def test_killed_sweep_resumes_with_one_row_per_trial(tmp_path: Path) -> None:
     resumed = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert resumed.returncode == 0, resumed.stderr
     summary = json.loads(resumed.stdout)
-    assert summary["skipped"] == stored and summary["completed"] == total - stored
+    # a commit the kill interrupted may still land once sqlite recovers it: never fewer
+    assert summary["skipped"] >= stored and summary["completed"] == total - summary["skipped"]
     with sqlite3.connect(store) as db:
         rows = db.execute("SELECT cell, mission_seed, algorithm, code_version FROM trials")
         keys = [tuple(r) for r in rows]

@@ -244,8 +244,11 @@ def test_a_killed_rank_is_named(mission: Path) -> None:
     pid = job.ranks_started()[1]
     os.kill(pid, signal.SIGKILL)
     line = job.end()
-    assert line.startswith(f"error: backend: rank 1 (pid {pid}) of the MPI job was killed by ")
-    assert "SIGKILL" in line
+    # MPICH 4.3 kills the other ranks with SIGKILL as it cleans up, and one of them may be
+    # seen first; MPICH 5 leaves them to end themselves
+    named = re.match(r"error: backend: rank (\d) \(pid (\d+)\) of the MPI job was killed by ", line)
+    assert named, line
+    assert int(named.group(1)) in (0, 1) and "SIGKILL" in line
 
 
 def test_a_killed_launcher_is_named(mission: Path) -> None:
